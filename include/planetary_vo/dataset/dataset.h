@@ -1,0 +1,130 @@
+#pragma once
+/// @file dataset.h
+/// The dataset format of planetary_vo (see docs/dataset_format.md) and readers for the public formats the VO is
+/// checked on (KITTI odometry, EuRoC ASL, TUM RGB-D). One reader, one writer, plain value types out.
+///
+/// Ground truth is always given as T_world_cam of the camera optical frame (REP-103: z forward, x right, y down),
+/// one pose per image, whatever the source format stores (EuRoC's body poses are composed with the camera extrinsic).
+
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/geometry/pose.h"
+
+namespace planetary_vo {
+
+/// Thrown with a message that names the file and what is wrong with it.
+class DatasetError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One IMU reading in the body frame (for the Lunar sequences, body = camera optical frame).
+struct ImuSample {
+  double timestamp_s = 0.0;
+  Eigen::Vector3d angular_velocity_radps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d specific_force_mps2 = Eigen::Vector3d::Zero();  ///< non-gravitational acceleration
+};
+
+/// One laser altimeter reading.
+struct AltimeterSample {
+  double timestamp_s = 0.0;
+  double slant_range_m = 0.0;  ///< range along the camera boresight to the terrain
+  double altitude_m = 0.0;     ///< height above the terrain directly below the camera
+};
+
+enum class DatasetFormat { kPlanetaryVo, kKitti, kEuroc, kTumRgbd };
+const char* toString(DatasetFormat format);
+
+/// A read-only sequence of images with optional ground truth, IMU and altimeter streams. Images are loaded on demand.
+class Dataset {
+ public:
+  /// Opens `directory`, detecting its format. Throws DatasetError (missing folder, unknown layout, bad file).
+  static Dataset open(const std::string& directory);
+
+  DatasetFormat format() const { return format_; }
+  const std::string& directory() const { return directory_; }
+  const std::string& name() const { return name_; }  ///< folder name, or `name` from sequence.yaml
+  const PinholeCamera& camera() const { return camera_; }
+
+  size_t size() const { return timestamps_s_.size(); }
+  double timestamp(size_t i) const { return timestamps_s_.at(i); }
+  const std::vector<double>& timestamps() const { return timestamps_s_; }
+  const std::string& imagePath(size_t i) const { return image_paths_.at(i); }
+  /// Image i as 8-bit single-channel gray (converted if stored otherwise). Throws DatasetError if unreadable.
+  cv::Mat loadImage(size_t i) const;
+
+  bool hasGroundTruth() const { return !ground_truth_.empty(); }
+  /// Ground truth pose of image i (same indices and stamps as the images); empty when the dataset has none.
+  const Trajectory& groundTruth() const { return ground_truth_; }
+  const std::vector<ImuSample>& imu() const { return imu_; }
+  const std::vector<AltimeterSample>& altimeter() const { return altimeter_; }
+  /// The text of sequence.yaml (planetary_vo format only), "" otherwise.
+  const std::string& sequenceYaml() const { return sequence_yaml_; }
+
+ private:
+  friend class DatasetReaders;
+  DatasetFormat format_ = DatasetFormat::kPlanetaryVo;
+  std::string directory_;
+  std::string name_;
+  PinholeCamera camera_;
+  std::vector<double> timestamps_s_;
+  std::vector<std::string> image_paths_;
+  Trajectory ground_truth_;
+  std::vector<ImuSample> imu_;
+  std::vector<AltimeterSample> altimeter_;
+  std::string sequence_yaml_;
+};
+
+/// Writes a dataset in the planetary_vo format. Images are written as they are added (so long renders can be
+/// resumed or inspected); the text files are written by finish() (also called by the destructor).
+class DatasetWriter {
+ public:
+  /// Creates `directory` and `directory/images`. Throws DatasetError if it cannot.
+  DatasetWriter(const std::string& directory, const PinholeCamera& camera);
+  ~DatasetWriter();
+  DatasetWriter(const DatasetWriter&) = delete;
+  DatasetWriter& operator=(const DatasetWriter&) = delete;
+
+  /// Writes images/NNNNNN.png (8- or 16-bit gray) and records its stamp and ground-truth pose.
+  void addFrame(double timestamp_s, const cv::Mat& image, const Pose& T_world_cam);
+  void addImu(const ImuSample& sample);
+  void addAltimeter(const AltimeterSample& sample);
+  /// Text of sequence.yaml (trajectory, camera mode, Sun, DEM, seed, rate, resolution...), written as given.
+  void setSequenceYaml(const std::string& yaml_text);
+  /// Writes groundtruth.txt, camera.yaml, imu.txt, altimeter.txt, sequence.yaml. Idempotent.
+  void finish();
+
+  size_t numFrames() const { return timestamps_s_.size(); }
+
+ private:
+  std::string directory_;
+  PinholeCamera camera_;
+  std::vector<double> timestamps_s_;
+  Trajectory ground_truth_;
+  std::vector<ImuSample> imu_;
+  std::vector<AltimeterSample> altimeter_;
+  std::string sequence_yaml_;
+  bool finished_ = false;
+};
+
+/// TUM trajectory files: `t tx ty tz qx qy qz qw` per line, '#' comments. Throws DatasetError on a bad line.
+Trajectory readTumTrajectory(const std::string& path);
+void writeTumTrajectory(const std::string& path, const Trajectory& trajectory);
+/// KITTI pose files: 12 numbers (3x4 row-major T_world_cam) per line; stamps are index / rate_hz.
+Trajectory readKittiTrajectory(const std::string& path, double rate_hz = 10.0);
+/// Reads a trajectory in TUM or KITTI format, deciding from the number of columns.
+Trajectory readTrajectory(const std::string& path);
+
+/// ROS camera_info YAML (image_width, image_height, camera_matrix, distortion_model, distortion_coefficients).
+PinholeCamera readCameraInfoYaml(const std::string& path);
+void writeCameraInfoYaml(const std::string& path, const PinholeCamera& camera, const std::string& camera_name);
+
+}  // namespace planetary_vo

@@ -1,0 +1,65 @@
+#pragma once
+/// @file camera_model.h
+/// Pinhole camera with optional lens distortion (ROS camera_info conventions: plumb_bob or equidistant).
+///
+/// Frames follow REP-103: the camera optical frame has z forward along the boresight, x right, y down.
+/// Pixel coordinates have their origin at the centre of the top-left pixel.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace planetary_vo {
+
+class PinholeCamera {
+ public:
+  PinholeCamera() = default;
+  PinholeCamera(int width_px, int height_px, double fx, double fy, double cx, double cy,
+                std::string distortion_model = "", std::vector<double> distortion = {});
+
+  /// Square pixels, principal point at the image centre, horizontal field of view in degrees.
+  static PinholeCamera fromFieldOfView(int width_px, int height_px, double horizontal_fov_deg);
+
+  int width() const { return width_px_; }
+  int height() const { return height_px_; }
+  double fx() const { return fx_; }
+  double fy() const { return fy_; }
+  double cx() const { return cx_; }
+  double cy() const { return cy_; }
+  /// "" or "none" (no distortion), "plumb_bob" (k1 k2 p1 p2 k3) or "equidistant" (k1 k2 k3 k4).
+  const std::string& distortionModel() const { return distortion_model_; }
+  const std::vector<double>& distortion() const { return distortion_; }
+  bool hasDistortion() const;
+
+  Eigen::Matrix3d K() const;
+  cv::Matx33d Kcv() const;
+
+  /// Finite positive focal lengths, finite principal point, positive size, known distortion model.
+  /// On failure, `why` (if given) says what is wrong.
+  bool isValid(std::string* why = nullptr) const;
+
+  /// Projects a point in the camera optical frame (z > 0) to ideal (undistorted) pixel coordinates.
+  Eigen::Vector2d project(const Eigen::Vector3d& p_in_cam) const;
+  /// Ideal pixel -> normalised image coordinates (x/z, y/z).
+  Eigen::Vector2d pixelToNormalized(const Eigen::Vector2d& px) const;
+  /// Ideal pixel -> unit bearing vector in the camera frame.
+  Eigen::Vector3d pixelToBearing(const Eigen::Vector2d& px) const;
+  bool isInImage(const Eigen::Vector2d& px, double border_px = 0.0) const;
+
+  /// Removes lens distortion from measured pixels, returning ideal pixels of the same K. No-op without distortion.
+  std::vector<cv::Point2f> undistortPixels(const std::vector<cv::Point2f>& distorted_px) const;
+
+  bool operator==(const PinholeCamera& other) const;
+  bool operator!=(const PinholeCamera& other) const { return !(*this == other); }
+
+ private:
+  int width_px_ = 0;
+  int height_px_ = 0;
+  double fx_ = 0.0, fy_ = 0.0, cx_ = 0.0, cy_ = 0.0;
+  std::string distortion_model_;
+  std::vector<double> distortion_;
+};
+
+}  // namespace planetary_vo

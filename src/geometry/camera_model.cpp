@@ -1,0 +1,98 @@
+#include "planetary_vo/geometry/camera_model.h"
+
+#include <cmath>
+#include <utility>
+
+#include <opencv2/calib3d.hpp>
+
+namespace planetary_vo {
+
+PinholeCamera::PinholeCamera(int width_px, int height_px, double fx, double fy, double cx, double cy,
+                             std::string distortion_model, std::vector<double> distortion)
+    : width_px_(width_px),
+      height_px_(height_px),
+      fx_(fx),
+      fy_(fy),
+      cx_(cx),
+      cy_(cy),
+      distortion_model_(std::move(distortion_model)),
+      distortion_(std::move(distortion)) {
+  if (distortion_model_ == "none") distortion_model_.clear();
+}
+
+PinholeCamera PinholeCamera::fromFieldOfView(int width_px, int height_px, double horizontal_fov_deg) {
+  const double f = 0.5 * width_px / std::tan(0.5 * horizontal_fov_deg * M_PI / 180.0);
+  // Pixel centres are at integer coordinates, so the optical centre of a W-wide image is at (W-1)/2.
+  return PinholeCamera(width_px, height_px, f, f, 0.5 * (width_px - 1), 0.5 * (height_px - 1));
+}
+
+bool PinholeCamera::hasDistortion() const {
+  if (distortion_model_.empty()) return false;
+  for (double d : distortion_)
+    if (d != 0.0) return true;
+  return false;
+}
+
+Eigen::Matrix3d PinholeCamera::K() const {
+  Eigen::Matrix3d K;
+  K << fx_, 0, cx_, 0, fy_, cy_, 0, 0, 1;
+  return K;
+}
+
+cv::Matx33d PinholeCamera::Kcv() const { return cv::Matx33d(fx_, 0, cx_, 0, fy_, cy_, 0, 0, 1); }
+
+bool PinholeCamera::isValid(std::string* why) const {
+  auto fail = [&](const std::string& reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (width_px_ <= 0 || height_px_ <= 0) return fail("image size is not positive");
+  if (!std::isfinite(fx_) || !std::isfinite(fy_) || fx_ <= 0.0 || fy_ <= 0.0)
+    return fail("focal length is zero, negative or not finite");
+  if (!std::isfinite(cx_) || !std::isfinite(cy_)) return fail("principal point is not finite");
+  for (double d : distortion_)
+    if (!std::isfinite(d)) return fail("distortion coefficient is not finite");
+  if (!distortion_model_.empty() && distortion_model_ != "plumb_bob" && distortion_model_ != "rational_polynomial" &&
+      distortion_model_ != "equidistant")
+    return fail("unsupported distortion model '" + distortion_model_ + "'");
+  if (distortion_model_ == "equidistant" && hasDistortion() && distortion_.size() < 4)
+    return fail("equidistant distortion needs 4 coefficients");
+  return true;
+}
+
+Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& p_in_cam) const {
+  return {fx_ * p_in_cam.x() / p_in_cam.z() + cx_, fy_ * p_in_cam.y() / p_in_cam.z() + cy_};
+}
+
+Eigen::Vector2d PinholeCamera::pixelToNormalized(const Eigen::Vector2d& px) const {
+  return {(px.x() - cx_) / fx_, (px.y() - cy_) / fy_};
+}
+
+Eigen::Vector3d PinholeCamera::pixelToBearing(const Eigen::Vector2d& px) const {
+  const Eigen::Vector2d n = pixelToNormalized(px);
+  return Eigen::Vector3d(n.x(), n.y(), 1.0).normalized();
+}
+
+bool PinholeCamera::isInImage(const Eigen::Vector2d& px, double border_px) const {
+  return px.x() >= border_px && px.y() >= border_px && px.x() <= width_px_ - 1 - border_px &&
+         px.y() <= height_px_ - 1 - border_px;
+}
+
+std::vector<cv::Point2f> PinholeCamera::undistortPixels(const std::vector<cv::Point2f>& distorted_px) const {
+  if (!hasDistortion() || distorted_px.empty()) return distorted_px;
+  std::vector<cv::Point2f> ideal_px;
+  const cv::Mat K(Kcv());
+  if (distortion_model_ == "equidistant") {
+    cv::fisheye::undistortPoints(distorted_px, ideal_px, K, cv::Mat(distortion_).rowRange(0, 4), cv::noArray(), K);
+  } else {
+    cv::undistortPoints(distorted_px, ideal_px, K, cv::Mat(distortion_), cv::noArray(), K);
+  }
+  return ideal_px;
+}
+
+bool PinholeCamera::operator==(const PinholeCamera& o) const {
+  return width_px_ == o.width_px_ && height_px_ == o.height_px_ && fx_ == o.fx_ && fy_ == o.fy_ && cx_ == o.cx_ &&
+         cy_ == o.cy_ && distortion_model_ == o.distortion_model_ && distortion_ == o.distortion_;
+}
+
+}  // namespace planetary_vo

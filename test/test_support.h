@@ -1,0 +1,37 @@
+#pragma once
+/// Helpers shared by the unit tests: where the shared data and the test output live.
+
+#include <cstdlib>
+#include <string>
+
+#include <sys/stat.h>
+
+#include <gtest/gtest.h>
+
+namespace planetary_vo::test {
+
+/// Absolute path of `relative` inside ../shared/data (or $PLANETARY_VO_DATA). A test that needs a missing file
+/// must fail, not skip: call requireDataFile() in an ASSERT.
+inline std::string dataPath(const std::string& relative) {
+  const char* env = std::getenv("PLANETARY_VO_DATA");
+  const std::string root = env && *env ? env : PLANETARY_VO_DATA_DIR;
+  return root + "/" + relative;
+}
+
+inline ::testing::AssertionResult requireDataFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "required test data is missing: " << path
+                                       << " (the shared data folder must be beside the checkout, "
+                                          "or PLANETARY_VO_DATA must point to it)";
+}
+
+/// A fresh folder for files a test writes, under the build tree: <build>/test_output/<name>.
+inline std::string outputDir(const std::string& name) {
+  const std::string dir = std::string(PLANETARY_VO_TEST_OUTPUT_DIR) + "/" + name;
+  const std::string cmd = "rm -rf '" + dir + "' && mkdir -p '" + dir + "'";
+  if (std::system(cmd.c_str()) != 0) ADD_FAILURE() << "cannot create " << dir;
+  return dir;
+}
+
+}  // namespace planetary_vo::test
