@@ -1,10 +1,11 @@
 #pragma once
 /// @file dataset.h
-/// The dataset format of planetary_vo (see docs/dataset_format.md) and readers for the public formats the VO is
-/// checked on (KITTI odometry, EuRoC ASL, TUM RGB-D). One reader, one writer, plain value types out.
+/// The dataset format of planetary_vo (see docs/dataset_format.md) and readers for the public formats the VO
+/// is checked on (KITTI odometry, EuRoC ASL, TUM RGB-D). One reader, one writer, plain value types out.
 ///
-/// Ground truth is always given as T_world_cam of the camera optical frame (REP-103: z forward, x right, y down),
-/// one pose per image, whatever the source format stores (EuRoC's body poses are composed with the camera extrinsic).
+/// Ground truth is always given as T_world_cam of the camera optical frame (REP-103: z forward, x right, y
+/// down), one pose per image, whatever the source format stores (EuRoC's body poses are composed with the
+/// camera extrinsic).
 
 #include <map>
 #include <memory>
@@ -43,7 +44,8 @@ struct AltimeterSample {
 enum class DatasetFormat { kPlanetaryVo, kKitti, kEuroc, kTumRgbd };
 const char* toString(DatasetFormat format);
 
-/// A read-only sequence of images with optional ground truth, IMU and altimeter streams. Images are loaded on demand.
+/// A read-only sequence of images with optional ground truth, IMU and altimeter streams. Images are loaded on
+/// demand.
 class Dataset {
  public:
   /// Opens `directory`, detecting its format. Throws DatasetError (missing folder, unknown layout, bad file).
@@ -60,6 +62,9 @@ class Dataset {
   const std::string& imagePath(size_t i) const { return image_paths_.at(i); }
   /// Image i as 8-bit single-channel gray (converted if stored otherwise). Throws DatasetError if unreadable.
   cv::Mat loadImage(size_t i) const;
+  /// Image i exactly as stored (e.g. 16-bit gray or BGR), without any conversion. Throws DatasetError if
+  /// unreadable.
+  cv::Mat loadImageUnchanged(size_t i) const;
 
   bool hasGroundTruth() const { return !ground_truth_.empty(); }
   /// Ground truth pose of image i (same indices and stamps as the images); empty when the dataset has none.
@@ -99,7 +104,7 @@ class DatasetWriter {
   void addAltimeter(const AltimeterSample& sample);
   /// Text of sequence.yaml (trajectory, camera mode, Sun, DEM, seed, rate, resolution...), written as given.
   void setSequenceYaml(const std::string& yaml_text);
-  /// Writes groundtruth.txt, camera.yaml, imu.txt, altimeter.txt, sequence.yaml. Idempotent.
+  /// Writes groundtruth.txt, times.txt, camera.yaml, imu.txt, altimeter.txt, sequence.yaml. Idempotent.
   void finish();
 
   size_t numFrames() const { return timestamps_s_.size(); }
@@ -123,8 +128,15 @@ Trajectory readKittiTrajectory(const std::string& path, double rate_hz = 10.0);
 /// Reads a trajectory in TUM or KITTI format, deciding from the number of columns.
 Trajectory readTrajectory(const std::string& path);
 
-/// ROS camera_info YAML (image_width, image_height, camera_matrix, distortion_model, distortion_coefficients).
+/// Pose at `timestamp_s` interpolated between the two samples of `samples` (sorted by time) around it: linear
+/// in position, slerp in rotation. Returns false (and leaves `T_world_cam` alone) outside [first, last]
+/// stamp.
+bool interpolatePose(const Trajectory& samples, double timestamp_s, Pose* T_world_cam);
+
+/// ROS camera_info YAML (image_width, image_height, camera_matrix, distortion_model,
+/// distortion_coefficients).
 PinholeCamera readCameraInfoYaml(const std::string& path);
-void writeCameraInfoYaml(const std::string& path, const PinholeCamera& camera, const std::string& camera_name);
+void writeCameraInfoYaml(const std::string& path, const PinholeCamera& camera,
+                         const std::string& camera_name);
 
 }  // namespace planetary_vo

@@ -1,0 +1,106 @@
+/// @file read_planetary_vo.cpp
+/// Reader of the planetary_vo format (docs/dataset_format.md).
+
+#include <cmath>
+
+#include <yaml-cpp/yaml.h>
+
+#include "dataset_internal.h"
+#include "planetary_vo/dataset/dataset.h"
+
+namespace planetary_vo {
+
+using namespace dataset_internal;
+
+namespace {
+
+std::vector<double> readTimes(const std::string& path) {
+  std::vector<double> stamps;
+  for (const TextRow& row : readTextTable(path, false)) {
+    requireColumns(path, row, 1, true);
+    const double t = parseDouble(path, row, 0);
+    if (!stamps.empty()) requireIncreasing(path, row, stamps.back(), t);
+    stamps.push_back(t);
+  }
+  return stamps;
+}
+
+std::vector<ImuSample> readImu(const std::string& path) {
+  std::vector<ImuSample> samples;
+  for (const TextRow& row : readTextTable(path, false)) {
+    requireColumns(path, row, 7, true);
+    ImuSample s;
+    s.timestamp_s = parseDouble(path, row, 0);
+    for (int k = 0; k < 3; ++k) {
+      s.angular_velocity_radps[k] = parseDouble(path, row, 1 + k);
+      s.specific_force_mps2[k] = parseDouble(path, row, 4 + k);
+    }
+    if (!samples.empty()) requireIncreasing(path, row, samples.back().timestamp_s, s.timestamp_s);
+    samples.push_back(s);
+  }
+  return samples;
+}
+
+std::vector<AltimeterSample> readAltimeter(const std::string& path) {
+  std::vector<AltimeterSample> samples;
+  for (const TextRow& row : readTextTable(path, false)) {
+    requireColumns(path, row, 3, true);
+    AltimeterSample s;
+    s.timestamp_s = parseDouble(path, row, 0);
+    s.slant_range_m = parseDouble(path, row, 1);
+    s.altitude_m = parseDouble(path, row, 2);
+    if (!samples.empty()) requireIncreasing(path, row, samples.back().timestamp_s, s.timestamp_s);
+    samples.push_back(s);
+  }
+  return samples;
+}
+
+/// `name` from sequence.yaml, "" when absent. Throws DatasetError when the text is not YAML.
+std::string sequenceName(const std::string& path, const std::string& text) {
+  try {
+    const YAML::Node root = YAML::Load(text);
+    if (root.IsMap() && root["name"] && root["name"].IsScalar()) return root["name"].as<std::string>();
+    return "";
+  } catch (const YAML::Exception& e) {
+    throw DatasetError(path + ": not valid YAML: " + e.what());
+  }
+}
+
+}  // namespace
+
+Dataset DatasetReaders::readPlanetaryVo(const std::string& directory) {
+  const std::string d = directory + "/";
+  Dataset dataset;
+  dataset.format_ = DatasetFormat::kPlanetaryVo;
+  dataset.directory_ = directory;
+  dataset.name_ = baseName(directory);
+  dataset.camera_ = readCameraInfoYaml(d + "camera.yaml");
+  dataset.image_paths_ = listImages(d + "images");
+
+  if (isFile(d + "groundtruth.txt")) dataset.ground_truth_ = readTumTrajectory(d + "groundtruth.txt");
+  if (isFile(d + "times.txt")) {
+    dataset.timestamps_s_ = readTimes(d + "times.txt");
+    if (dataset.ground_truth_.size() == dataset.timestamps_s_.size()) {
+      for (size_t i = 0; i < dataset.timestamps_s_.size(); ++i)
+        if (std::abs(dataset.ground_truth_[i].timestamp_s - dataset.timestamps_s_[i]) > 1e-6)
+          throw DatasetError(d + "groundtruth.txt: pose " + std::to_string(i) +
+                             " is not at the stamp of image " + std::to_string(i) + " in times.txt");
+    }
+  } else if (!dataset.ground_truth_.empty()) {
+    for (const StampedPose& p : dataset.ground_truth_) dataset.timestamps_s_.push_back(p.timestamp_s);
+  } else {
+    throw DatasetError(directory + ": neither times.txt nor groundtruth.txt gives the image time stamps");
+  }
+
+  if (isFile(d + "imu.txt")) dataset.imu_ = readImu(d + "imu.txt");
+  if (isFile(d + "altimeter.txt")) dataset.altimeter_ = readAltimeter(d + "altimeter.txt");
+  if (isFile(d + "sequence.yaml")) {
+    dataset.sequence_yaml_ = readWholeFile(d + "sequence.yaml");
+    const std::string name = sequenceName(d + "sequence.yaml", dataset.sequence_yaml_);
+    if (!name.empty()) dataset.name_ = name;
+  }
+  checkConsistent(dataset);
+  return dataset;
+}
+
+}  // namespace planetary_vo
