@@ -1,0 +1,177 @@
+#pragma once
+/// @file config.h
+/// Configuration of the visual-odometry chain: one plain struct per stage, gathered in VoConfig.
+///
+/// Every default is stated exactly once, as a member initialiser below. config/default.yaml documents the
+/// same values key by key, and test_config checks that parsing it yields a default-constructed VoConfig, so
+/// the two cannot drift apart. Each stage receives only its own sub-struct (e.g. `KltTracker(const
+/// TrackerConfig&)`); no stage sees YAML, rosparam or the whole VoConfig.
+///
+/// YAML layout: one map per section, named as the VoConfig members (`detector:`, `tracker:`, `motion:`,
+/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`), each holding the keys named as the struct
+/// members. Loading lives in config_yaml.h.
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace planetary_vo {
+
+/// Thrown by the loader and by VoConfig::validate(); the message lists every problem, one per line, each
+/// naming `section.key`.
+class ConfigError : public std::runtime_error {
+ public:
+  explicit ConfigError(std::vector<std::string> problems);
+  /// One entry per bad or unknown key, e.g. "detector.num_featurs: unknown key (did you mean
+  /// 'num_features'?)".
+  const std::vector<std::string>& problems() const { return problems_; }
+
+ private:
+  std::vector<std::string> problems_;
+};
+
+/// Stage 1: ORB/FAST corners detected on a grid of image cells (thesis 4.4.2, Table 4.5, plus the Phase-1
+/// redistribution of the budget of textureless cells).
+struct DetectorConfig {
+  int num_features = 300;            ///< total feature budget per full detection (Table 4.5)
+  double scale_factor = 1.5;         ///< ratio between ORB pyramid levels (Table 4.5)
+  int num_levels = 4;                ///< ORB pyramid levels, 1 = full resolution only (Table 4.5)
+  int patch_size_px = 20;            ///< rBRIEF patch size (Table 4.5)
+  int fast_threshold = 20;           ///< FAST intensity threshold, grey levels (Table 4.5)
+  int fast_threshold_fallback = 7;   ///< FAST threshold retried in a cell short of corners; 0 = no retry
+  int edge_threshold_px = 0;         ///< no corner closer than this to the image border (Table 4.5: 0)
+  int grid_cols = 8;                 ///< grid cells across (thesis 4.4.2.1: 64 sub-windows)
+  int grid_rows = 8;                 ///< grid cells down
+  double min_distance_px = 10.0;     ///< minimum distance between two features (new or existing); 0 = off
+  bool redistribute_budget = true;   ///< give the unused budget of corner-poor cells to textured ones
+  bool compute_descriptors = false;  ///< compute ORB descriptors (only relocalisation needs them)
+};
+
+/// What the tracker does when features are lost.
+enum class ReplenishStrategy {
+  kEmptyCells,  ///< keep surviving tracks, detect new features only in grid cells that became empty (Phase 1)
+  kRestartBelowMin,  ///< thesis 4.4.1: when too few tracks survive, drop all and detect afresh
+};
+
+/// Stage 2: pyramidal Lucas-Kanade tracking (thesis 4.4.3, Table 4.7) with forward-backward check.
+struct TrackerConfig {
+  int window_size_px = 21;             ///< LK search window side (Table 4.7: 21x21)
+  int pyramid_levels = 3;              ///< LK pyramid levels above full resolution (Table 4.7)
+  double min_eigen_threshold = 0.001;  ///< OpenCV minEigThreshold: rejects low-contrast windows (Table 4.7)
+  int max_iterations = 30;             ///< LK iterations per level (Table 4.7)
+  double epsilon_px = 0.01;            ///< LK stops when the update is smaller than this (Table 4.7)
+  double fb_max_error_px =
+      1.0;            ///< forward-backward round-trip error above which a track is dropped; 0 = off
+  int border_px = 1;  ///< a track closer than this to the image border is dropped
+  ReplenishStrategy replenish_strategy = ReplenishStrategy::kEmptyCells;
+  int replenish_cell_min_features =
+      1;                           ///< kEmptyCells: a cell holding fewer tracks than this gets new features
+  int min_tracked_features = 100;  ///< kRestartBelowMin: restart detection below this many tracks
+};
+
+enum class MotionModel { kFundamental, kEssential, kHomography, kAuto };
+
+/// Stage 3: two-view motion estimation (thesis 4.4.4) and the H-vs-F/E model selection.
+struct MotionConfig {
+  MotionModel model = MotionModel::kAuto;  ///< auto = choose H or E per frame pair by the score ratio below
+  double ransac_confidence = 0.99;         ///< RANSAC success probability
+  double ransac_threshold_px = 1.0;        ///< RANSAC inlier threshold (epipolar distance / transfer error)
+  int ransac_max_iterations = 1000;        ///< RANSAC iteration cap
+  double homography_score_ratio = 0.45;    ///< auto: pick H when S_H / (S_H + S_F) > this (ORB-SLAM R_H)
+  int min_inliers = 30;                    ///< fewer RANSAC inliers -> the frame pair is rejected
+  double min_parallax_deg = 1.0;           ///< median triangulation angle needed to trust a two-view pose
+};
+
+enum class KeyframeMode {
+  kFixedRate,  ///< every processed frame is a keyframe (the thesis chain)
+  kParallax,   ///< a keyframe when parallax or track survival says the view changed enough
+};
+
+/// Keyframe selection and input decimation.
+struct KeyframeConfig {
+  KeyframeMode mode = KeyframeMode::kParallax;
+  int process_every_n_frames = 1;  ///< process one input frame out of n (thesis: 0.5 Hz from 30 Hz = 60)
+  double min_parallax_deg = 1.0;   ///< kParallax: median rotation-compensated parallax for a new keyframe
+  double min_track_ratio = 0.6;  ///< kParallax: new keyframe when fewer of the last keyframe's tracks survive
+  int max_interval_frames = 30;  ///< kParallax: a keyframe at least every this many processed frames
+};
+
+/// Sparse map of triangulated points (thesis Phase 2).
+struct MapConfig {
+  double min_triangulation_parallax_deg = 1.0;  ///< rays closer than this are not triangulated
+  double max_reprojection_error_px = 2.0;       ///< a new or refined point reprojecting worse is rejected
+  int min_observations = 2;                     ///< keyframes that must see a point for it to be kept
+  double cull_min_found_ratio = 0.25;           ///< culled when found / predicted-visible falls below this
+  int window_keyframes = 10;                    ///< keyframes in the local map used for tracking
+};
+
+/// Frame-to-map pose by EPnP inside RANSAC.
+struct PnpConfig {
+  double ransac_reprojection_error_px = 2.0;  ///< RANSAC inlier threshold
+  int ransac_iterations = 100;                ///< RANSAC iteration cap
+  double ransac_confidence = 0.99;            ///< RANSAC success probability
+  int min_inliers = 15;                       ///< fewer inliers -> tracking against the map failed
+  bool refine = true;                         ///< Levenberg-Marquardt refinement on the inliers
+};
+
+enum class RobustLoss { kNone, kHuber, kCauchy };
+
+/// Sliding-window bundle adjustment (Ceres).
+struct BundleAdjustmentConfig {
+  bool enabled = true;
+  int window_keyframes = 10;  ///< keyframes whose poses are optimised
+  RobustLoss robust_loss = RobustLoss::kHuber;
+  double robust_loss_scale_px = 2.0;  ///< reprojection error where the robust loss starts to flatten
+  int max_iterations = 20;            ///< Ceres iterations per adjustment
+  bool asynchronous = false;          ///< run in a background thread; false keeps runs reproducible
+};
+
+enum class TrajectoryMode {
+  kUnitStepConcatenation,  ///< thesis 4.4.1: chain the unit-norm two-view motions, no map
+  kMap,                    ///< track against a triangulated map (scale consistent up to drift)
+};
+
+/// How the stages are composed and how the chain recovers from failures.
+struct PipelineConfig {
+  TrajectoryMode trajectory_mode = TrajectoryMode::kMap;
+  int max_consecutive_failed_frames = 10;  ///< after this many frames without a pose, reinitialise
+};
+
+/// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).
+struct VoConfig {
+  DetectorConfig detector;
+  TrackerConfig tracker;
+  MotionConfig motion;
+  KeyframeConfig keyframe;
+  MapConfig map;
+  PnpConfig pnp;
+  BundleAdjustmentConfig bundle_adjustment;
+  PipelineConfig pipeline;
+
+  /// Every out-of-range value and every inconsistent combination, one line each naming `section.key`.
+  std::vector<std::string> validationErrors() const;
+  /// Throws ConfigError listing validationErrors() when there is any.
+  void validate() const;
+  /// YAML text of every key in effect (parseVoConfig(dump()) == *this). Defined in config_yaml.cpp.
+  std::string dump() const;
+};
+
+bool operator==(const DetectorConfig& a, const DetectorConfig& b);
+bool operator==(const TrackerConfig& a, const TrackerConfig& b);
+bool operator==(const MotionConfig& a, const MotionConfig& b);
+bool operator==(const KeyframeConfig& a, const KeyframeConfig& b);
+bool operator==(const MapConfig& a, const MapConfig& b);
+bool operator==(const PnpConfig& a, const PnpConfig& b);
+bool operator==(const BundleAdjustmentConfig& a, const BundleAdjustmentConfig& b);
+bool operator==(const PipelineConfig& a, const PipelineConfig& b);
+bool operator==(const VoConfig& a, const VoConfig& b);
+inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b); }
+
+/// YAML spelling of the enum values ("fundamental", "empty_cells", ...).
+const char* toString(MotionModel v);
+const char* toString(KeyframeMode v);
+const char* toString(RobustLoss v);
+const char* toString(TrajectoryMode v);
+const char* toString(ReplenishStrategy v);
+
+}  // namespace planetary_vo

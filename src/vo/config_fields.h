@@ -1,0 +1,182 @@
+#pragma once
+/// @file config_fields.h
+/// Private to src/vo: the one table of YAML keys, members and valid ranges of VoConfig. Parsing, dumping,
+/// range validation and operator== all walk this table, so a key is named, and its range stated, in one place
+/// only.
+///
+/// A visitor V provides:
+///   void beginSection(const char* name);
+///   template <class T, class L> void operator()(const char* key, T& value, L lo, L hi);  // int / double,
+///   [lo, hi] void operator()(const char* key, bool& value); template <class E> void enumeration(const char*
+///   key, E& value);                   // enum listed below
+/// `C` is the struct or its const version, so the same table serves readers and writers.
+
+#include <array>
+#include <cstring>
+#include <utility>
+
+#include "planetary_vo/vo/config.h"
+
+namespace planetary_vo::config_detail {
+
+/// YAML spelling of each enumerator; toString() and the parser both use these tables.
+template <class E>
+struct EnumNames;
+template <>
+struct EnumNames<MotionModel> {
+  static constexpr std::array<std::pair<MotionModel, const char*>, 4> kValues{
+      {{MotionModel::kFundamental, "fundamental"},
+       {MotionModel::kEssential, "essential"},
+       {MotionModel::kHomography, "homography"},
+       {MotionModel::kAuto, "auto"}}};
+};
+template <>
+struct EnumNames<KeyframeMode> {
+  static constexpr std::array<std::pair<KeyframeMode, const char*>, 2> kValues{
+      {{KeyframeMode::kFixedRate, "fixed_rate"}, {KeyframeMode::kParallax, "parallax"}}};
+};
+template <>
+struct EnumNames<RobustLoss> {
+  static constexpr std::array<std::pair<RobustLoss, const char*>, 3> kValues{
+      {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}};
+};
+template <>
+struct EnumNames<TrajectoryMode> {
+  static constexpr std::array<std::pair<TrajectoryMode, const char*>, 2> kValues{
+      {{TrajectoryMode::kUnitStepConcatenation, "unit_step_concatenation"}, {TrajectoryMode::kMap, "map"}}};
+};
+template <>
+struct EnumNames<ReplenishStrategy> {
+  static constexpr std::array<std::pair<ReplenishStrategy, const char*>, 2> kValues{
+      {{ReplenishStrategy::kEmptyCells, "empty_cells"},
+       {ReplenishStrategy::kRestartBelowMin, "restart_below_min"}}};
+};
+
+template <class E>
+const char* enumName(E value) {
+  for (const auto& [v, name] : EnumNames<E>::kValues)
+    if (v == value) return name;
+  return "?";
+}
+
+/// Finds the enumerator spelled `name`; false when there is none.
+template <class E>
+bool enumFromName(const char* name, E* value) {
+  for (const auto& [v, n] : EnumNames<E>::kValues) {
+    if (std::strcmp(n, name) == 0) {
+      *value = v;
+      return true;
+    }
+  }
+  return false;
+}
+
+// Ranges are deliberately wide: they catch typos and unit mistakes (a confidence of 99, a negative
+// threshold), not tuning choices.
+
+template <class C, class V>
+void detectorFields(C& c, V& v) {
+  v("num_features", c.num_features, 1, 100000);
+  v("scale_factor", c.scale_factor, 1.01, 4.0);
+  v("num_levels", c.num_levels, 1, 16);
+  v("patch_size_px", c.patch_size_px, 2, 255);
+  v("fast_threshold", c.fast_threshold, 1, 254);
+  v("fast_threshold_fallback", c.fast_threshold_fallback, 0, 254);
+  v("edge_threshold_px", c.edge_threshold_px, 0, 1000);
+  v("grid_cols", c.grid_cols, 1, 64);
+  v("grid_rows", c.grid_rows, 1, 64);
+  v("min_distance_px", c.min_distance_px, 0.0, 1000.0);
+  v("redistribute_budget", c.redistribute_budget);
+  v("compute_descriptors", c.compute_descriptors);
+}
+
+template <class C, class V>
+void trackerFields(C& c, V& v) {
+  v("window_size_px", c.window_size_px, 3, 255);
+  v("pyramid_levels", c.pyramid_levels, 0, 10);
+  v("min_eigen_threshold", c.min_eigen_threshold, 0.0, 1.0);
+  v("max_iterations", c.max_iterations, 1, 1000);
+  v("epsilon_px", c.epsilon_px, 1e-6, 10.0);
+  v("fb_max_error_px", c.fb_max_error_px, 0.0, 100.0);
+  v("border_px", c.border_px, 0, 1000);
+  v.enumeration("replenish_strategy", c.replenish_strategy);
+  v("replenish_cell_min_features", c.replenish_cell_min_features, 1, 10000);
+  v("min_tracked_features", c.min_tracked_features, 0, 100000);
+}
+
+template <class C, class V>
+void motionFields(C& c, V& v) {
+  v.enumeration("model", c.model);
+  v("ransac_confidence", c.ransac_confidence, 0.5, 0.999999);
+  v("ransac_threshold_px", c.ransac_threshold_px, 1e-3, 100.0);
+  v("ransac_max_iterations", c.ransac_max_iterations, 1, 1000000);
+  v("homography_score_ratio", c.homography_score_ratio, 0.0, 1.0);
+  v("min_inliers", c.min_inliers, 5, 100000);
+  v("min_parallax_deg", c.min_parallax_deg, 0.0, 90.0);
+}
+
+template <class C, class V>
+void keyframeFields(C& c, V& v) {
+  v.enumeration("mode", c.mode);
+  v("process_every_n_frames", c.process_every_n_frames, 1, 100000);
+  v("min_parallax_deg", c.min_parallax_deg, 0.0, 90.0);
+  v("min_track_ratio", c.min_track_ratio, 0.0, 1.0);
+  v("max_interval_frames", c.max_interval_frames, 1, 100000);
+}
+
+template <class C, class V>
+void mapFields(C& c, V& v) {
+  v("min_triangulation_parallax_deg", c.min_triangulation_parallax_deg, 0.0, 90.0);
+  v("max_reprojection_error_px", c.max_reprojection_error_px, 1e-3, 100.0);
+  v("min_observations", c.min_observations, 2, 1000);
+  v("cull_min_found_ratio", c.cull_min_found_ratio, 0.0, 1.0);
+  v("window_keyframes", c.window_keyframes, 2, 1000);
+}
+
+template <class C, class V>
+void pnpFields(C& c, V& v) {
+  v("ransac_reprojection_error_px", c.ransac_reprojection_error_px, 1e-3, 100.0);
+  v("ransac_iterations", c.ransac_iterations, 1, 1000000);
+  v("ransac_confidence", c.ransac_confidence, 0.5, 0.999999);
+  v("min_inliers", c.min_inliers, 4, 100000);
+  v("refine", c.refine);
+}
+
+template <class C, class V>
+void bundleAdjustmentFields(C& c, V& v) {
+  v("enabled", c.enabled);
+  v("window_keyframes", c.window_keyframes, 2, 1000);
+  v.enumeration("robust_loss", c.robust_loss);
+  v("robust_loss_scale_px", c.robust_loss_scale_px, 1e-3, 100.0);
+  v("max_iterations", c.max_iterations, 1, 10000);
+  v("asynchronous", c.asynchronous);
+}
+
+template <class C, class V>
+void pipelineFields(C& c, V& v) {
+  v.enumeration("trajectory_mode", c.trajectory_mode);
+  v("max_consecutive_failed_frames", c.max_consecutive_failed_frames, 1, 100000);
+}
+
+/// Walks every section of VoConfig in file order.
+template <class Cfg, class V>
+void forEachField(Cfg& cfg, V& v) {
+  v.beginSection("detector");
+  detectorFields(cfg.detector, v);
+  v.beginSection("tracker");
+  trackerFields(cfg.tracker, v);
+  v.beginSection("motion");
+  motionFields(cfg.motion, v);
+  v.beginSection("keyframe");
+  keyframeFields(cfg.keyframe, v);
+  v.beginSection("map");
+  mapFields(cfg.map, v);
+  v.beginSection("pnp");
+  pnpFields(cfg.pnp, v);
+  v.beginSection("bundle_adjustment");
+  bundleAdjustmentFields(cfg.bundle_adjustment, v);
+  v.beginSection("pipeline");
+  pipelineFields(cfg.pipeline, v);
+}
+
+}  // namespace planetary_vo::config_detail

@@ -1,0 +1,320 @@
+/// Tests of VoConfig: YAML parsing field by field, typo and range rejection, dump round trip, and agreement
+/// between config/default.yaml and the member initialisers.
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/config_yaml.h"
+
+namespace planetary_vo {
+namespace {
+
+/// The repository root, from this file's absolute path (CMake compiles tests by absolute path).
+std::string sourceRoot() {
+  const std::string file = __FILE__;
+  const std::string suffix = "test/unit/vo/test_config.cpp";
+  EXPECT_GE(file.size(), suffix.size());
+  EXPECT_EQ(file.substr(file.size() - suffix.size()), suffix);
+  return file.substr(0, file.size() - suffix.size());
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in.good()) << "cannot read " << path;
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Problems of the ConfigError thrown by parseVoConfig(text); fails the test when none is thrown.
+std::vector<std::string> problemsOf(const std::string& text) {
+  try {
+    parseVoConfig(text);
+  } catch (const ConfigError& e) {
+    return e.problems();
+  }
+  ADD_FAILURE() << "no ConfigError for:\n" << text;
+  return {};
+}
+
+bool anyContains(const std::vector<std::string>& lines, const std::string& needle) {
+  return std::any_of(lines.begin(), lines.end(),
+                     [&](const std::string& l) { return l.find(needle) != std::string::npos; });
+}
+
+/// "section.key" of every key dump() writes, i.e. of every field in the key table.
+std::vector<std::string> dumpedKeys(const VoConfig& config) {
+  std::vector<std::string> keys;
+  const YAML::Node root = YAML::Load(config.dump());
+  for (const auto& section : root)
+    for (const auto& kv : section.second)
+      keys.push_back(section.first.as<std::string>() + "." + kv.first.as<std::string>());
+  return keys;
+}
+
+TEST(VoConfig, FixtureParsesFieldByField) {
+  const VoConfig c = loadVoConfig(sourceRoot() + "test/fixtures/vo_config_full.yaml");
+  EXPECT_EQ(c.detector.num_features, 500);
+  EXPECT_DOUBLE_EQ(c.detector.scale_factor, 1.2);
+  EXPECT_EQ(c.detector.num_levels, 3);
+  EXPECT_EQ(c.detector.patch_size_px, 31);
+  EXPECT_EQ(c.detector.fast_threshold, 25);
+  EXPECT_EQ(c.detector.fast_threshold_fallback, 5);
+  EXPECT_EQ(c.detector.edge_threshold_px, 16);
+  EXPECT_EQ(c.detector.grid_cols, 4);
+  EXPECT_EQ(c.detector.grid_rows, 6);
+  EXPECT_DOUBLE_EQ(c.detector.min_distance_px, 7.5);
+  EXPECT_FALSE(c.detector.redistribute_budget);
+  EXPECT_TRUE(c.detector.compute_descriptors);
+
+  EXPECT_EQ(c.tracker.window_size_px, 15);
+  EXPECT_EQ(c.tracker.pyramid_levels, 4);
+  EXPECT_DOUBLE_EQ(c.tracker.min_eigen_threshold, 0.0005);
+  EXPECT_EQ(c.tracker.max_iterations, 20);
+  EXPECT_DOUBLE_EQ(c.tracker.epsilon_px, 0.03);
+  EXPECT_DOUBLE_EQ(c.tracker.fb_max_error_px, 0.5);
+  EXPECT_EQ(c.tracker.border_px, 3);
+  EXPECT_EQ(c.tracker.replenish_strategy, ReplenishStrategy::kRestartBelowMin);
+  EXPECT_EQ(c.tracker.replenish_cell_min_features, 2);
+  EXPECT_EQ(c.tracker.min_tracked_features, 80);
+
+  EXPECT_EQ(c.motion.model, MotionModel::kHomography);
+  EXPECT_DOUBLE_EQ(c.motion.ransac_confidence, 0.999);
+  EXPECT_DOUBLE_EQ(c.motion.ransac_threshold_px, 1.5);
+  EXPECT_EQ(c.motion.ransac_max_iterations, 500);
+  EXPECT_DOUBLE_EQ(c.motion.homography_score_ratio, 0.4);
+  EXPECT_EQ(c.motion.min_inliers, 40);
+  EXPECT_DOUBLE_EQ(c.motion.min_parallax_deg, 2.0);
+
+  EXPECT_EQ(c.keyframe.mode, KeyframeMode::kFixedRate);
+  EXPECT_EQ(c.keyframe.process_every_n_frames, 60);
+  EXPECT_DOUBLE_EQ(c.keyframe.min_parallax_deg, 2.5);
+  EXPECT_DOUBLE_EQ(c.keyframe.min_track_ratio, 0.5);
+  EXPECT_EQ(c.keyframe.max_interval_frames, 15);
+
+  EXPECT_DOUBLE_EQ(c.map.min_triangulation_parallax_deg, 0.5);
+  EXPECT_DOUBLE_EQ(c.map.max_reprojection_error_px, 3.0);
+  EXPECT_EQ(c.map.min_observations, 3);
+  EXPECT_DOUBLE_EQ(c.map.cull_min_found_ratio, 0.3);
+  EXPECT_EQ(c.map.window_keyframes, 12);
+
+  EXPECT_DOUBLE_EQ(c.pnp.ransac_reprojection_error_px, 4.0);
+  EXPECT_EQ(c.pnp.ransac_iterations, 200);
+  EXPECT_DOUBLE_EQ(c.pnp.ransac_confidence, 0.995);
+  EXPECT_EQ(c.pnp.min_inliers, 20);
+  EXPECT_FALSE(c.pnp.refine);
+
+  EXPECT_FALSE(c.bundle_adjustment.enabled);
+  EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);
+  EXPECT_EQ(c.bundle_adjustment.robust_loss, RobustLoss::kCauchy);
+  EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_px, 1.5);
+  EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
+  EXPECT_TRUE(c.bundle_adjustment.asynchronous);
+
+  EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
+  EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);
+}
+
+TEST(VoConfig, FixtureSetsEveryKeyToANonDefaultValue) {
+  // Guards the field-by-field test: a key added to the table but not to the fixture fails here.
+  const std::string text = readText(sourceRoot() + "test/fixtures/vo_config_full.yaml");
+  const YAML::Node fixture = YAML::Load(text);
+  const VoConfig defaults;
+  const YAML::Node dumped_defaults = YAML::Load(defaults.dump());
+  for (const std::string& key : dumpedKeys(defaults)) {
+    const std::string section = key.substr(0, key.find('.')), name = key.substr(key.find('.') + 1);
+    ASSERT_TRUE(fixture[section] && fixture[section][name]) << key << " is missing from the fixture";
+    EXPECT_NE(fixture[section][name].as<std::string>(), dumped_defaults[section][name].as<std::string>())
+        << key << " has its default value in the fixture";
+  }
+}
+
+TEST(VoConfig, EachSectionTakesPartInEquality) {
+  const VoConfig fixture = loadVoConfig(sourceRoot() + "test/fixtures/vo_config_full.yaml");
+  const VoConfig defaults;
+  EXPECT_TRUE(defaults == VoConfig());
+  EXPECT_FALSE(fixture == defaults);
+  VoConfig c;
+  c.detector = fixture.detector;
+  EXPECT_FALSE(c == defaults) << "detector";
+  c = VoConfig();
+  c.tracker = fixture.tracker;
+  EXPECT_FALSE(c == defaults) << "tracker";
+  c = VoConfig();
+  c.motion = fixture.motion;
+  EXPECT_FALSE(c == defaults) << "motion";
+  c = VoConfig();
+  c.keyframe = fixture.keyframe;
+  EXPECT_FALSE(c == defaults) << "keyframe";
+  c = VoConfig();
+  c.map = fixture.map;
+  EXPECT_FALSE(c == defaults) << "map";
+  c = VoConfig();
+  c.pnp = fixture.pnp;
+  EXPECT_FALSE(c == defaults) << "pnp";
+  c = VoConfig();
+  c.bundle_adjustment = fixture.bundle_adjustment;
+  EXPECT_FALSE(c == defaults) << "bundle_adjustment";
+  c = VoConfig();
+  c.pipeline = fixture.pipeline;
+  EXPECT_FALSE(c == defaults) << "pipeline";
+  // The last key of a section, in case a walker stops early.
+  c = VoConfig();
+  c.detector.compute_descriptors = true;
+  EXPECT_FALSE(c.detector == defaults.detector);
+  c = VoConfig();
+  c.pipeline.max_consecutive_failed_frames = 11;
+  EXPECT_FALSE(c == defaults);
+}
+
+TEST(VoConfig, DefaultYamlEqualsDefaultConstructedConfig) {
+  const VoConfig from_file = loadVoConfig(sourceRoot() + "config/default.yaml");
+  EXPECT_TRUE(from_file == VoConfig()) << "config/default.yaml and config.h disagree; default.yaml gives:\n"
+                                       << from_file.dump() << "config.h gives:\n"
+                                       << VoConfig().dump();
+}
+
+TEST(VoConfig, DefaultYamlListsAndCommentsEveryKey) {
+  const std::string path = sourceRoot() + "config/default.yaml";
+  const YAML::Node file = YAML::Load(readText(path));
+  for (const std::string& key : dumpedKeys(VoConfig())) {
+    const std::string section = key.substr(0, key.find('.')), name = key.substr(key.find('.') + 1);
+    EXPECT_TRUE(file[section] && file[section][name]) << key << " is not documented in config/default.yaml";
+  }
+  // Every key line must directly follow a comment line (the documentation of that key).
+  std::istringstream lines(readText(path));
+  std::string line, previous;
+  int key_lines = 0;
+  while (std::getline(lines, line)) {
+    if (line.rfind("  ", 0) == 0 && line.find(':') != std::string::npos && line[2] != '#' && line[2] != ' ') {
+      ++key_lines;
+      EXPECT_NE(previous.find("  #"), std::string::npos) << "no comment above '" << line << "'";
+    }
+    previous = line;
+  }
+  EXPECT_EQ(key_lines, static_cast<int>(dumpedKeys(VoConfig()).size()));
+}
+
+TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
+  const std::pair<const char*, MotionModel> files[] = {{"config/thesis_F.yaml", MotionModel::kFundamental},
+                                                       {"config/thesis_E.yaml", MotionModel::kEssential},
+                                                       {"config/thesis_H.yaml", MotionModel::kHomography}};
+  for (const auto& [file, model] : files) {
+    const VoConfig c = loadVoConfig(sourceRoot() + file);
+    EXPECT_EQ(c.motion.model, model) << file;
+    EXPECT_EQ(c.keyframe.mode, KeyframeMode::kFixedRate) << file;
+    EXPECT_EQ(c.keyframe.process_every_n_frames, 60) << file;
+    EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation) << file;
+    EXPECT_FALSE(c.bundle_adjustment.enabled) << file;
+    EXPECT_EQ(c.tracker.replenish_strategy, ReplenishStrategy::kRestartBelowMin) << file;
+    // Thesis Tables 4.5 and 4.7 come from the defaults.
+    EXPECT_EQ(c.detector.num_features, 300) << file;
+    EXPECT_EQ(c.detector.grid_cols * c.detector.grid_rows, 64) << file;
+    EXPECT_EQ(c.tracker.window_size_px, 21) << file;
+  }
+}
+
+TEST(VoConfig, UnknownKeysAndSectionsAreNamedWithSuggestions) {
+  const std::vector<std::string> problems = problemsOf(
+      "detector:\n"
+      "  num_featurs: 200\n"
+      "  fast_threshold: 30\n"
+      "trackr:\n"
+      "  window_size_px: 31\n"
+      "motion:\n"
+      "  frobnicate: 1\n");
+  ASSERT_EQ(problems.size(), 3u) << ::testing::PrintToString(problems);
+  EXPECT_TRUE(anyContains(problems, "detector.num_featurs: unknown key (did you mean 'num_features'?)"));
+  EXPECT_TRUE(anyContains(problems, "trackr: unknown section (did you mean 'tracker'?)"));
+  EXPECT_TRUE(anyContains(problems, "motion.frobnicate: unknown key"));
+  EXPECT_FALSE(anyContains(problems, "frobnicate: unknown key (did you mean"));
+  EXPECT_TRUE(anyContains(problems, "line 2"));  // num_featurs is on line 2
+}
+
+TEST(VoConfig, BadTypesAndRangesAreAllReportedTogether) {
+  const std::vector<std::string> problems = problemsOf(
+      "detector:\n"
+      "  num_features: 12.5\n"  // not an integer
+      "  scale_factor: 0.9\n"   // below 1
+      "  redistribute_budget: maybe\n"
+      "tracker:\n"
+      "  window_size_px: [21, 21]\n"  // a list
+      "motion:\n"
+      "  model: quadrifocal\n"
+      "  ransac_confidence: 99\n"  // percent instead of probability
+      "bundle_adjustment:\n"
+      "  robust_loss_scale_px: .nan\n");
+  ASSERT_EQ(problems.size(), 7u) << ::testing::PrintToString(problems);
+  EXPECT_TRUE(anyContains(problems, "detector.num_features: expected an integer, got '12.5'"));
+  EXPECT_TRUE(anyContains(problems, "detector.scale_factor: 0.9 is out of range"));
+  EXPECT_TRUE(anyContains(problems, "detector.redistribute_budget: expected true or false, got 'maybe'"));
+  EXPECT_TRUE(anyContains(problems, "tracker.window_size_px: expected an integer, got a list"));
+  EXPECT_TRUE(anyContains(problems, "motion.model: expected fundamental | essential | homography | auto"));
+  EXPECT_TRUE(anyContains(problems, "motion.ransac_confidence: 99 is out of range"));
+  EXPECT_TRUE(anyContains(problems, "bundle_adjustment.robust_loss_scale_px: nan is out of range"));
+}
+
+TEST(VoConfig, InconsistentCombinationsAreRejected) {
+  auto problems = problemsOf("pipeline:\n  trajectory_mode: unit_step_concatenation\n");
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_TRUE(anyContains(problems, "bundle_adjustment.enabled"));
+
+  problems = problemsOf("detector:\n  fast_threshold: 10\n  fast_threshold_fallback: 12\n");
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_TRUE(anyContains(problems, "detector.fast_threshold_fallback"));
+
+  problems = problemsOf("tracker:\n  window_size_px: 20\n");
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_TRUE(anyContains(problems, "tracker.window_size_px"));
+
+  VoConfig c;
+  c.tracker.max_iterations = 0;
+  EXPECT_THROW(c.validate(), ConfigError);
+  EXPECT_NO_THROW(VoConfig().validate());
+}
+
+TEST(VoConfig, AbsentKeysKeepDefaultsAndEmptyDocumentIsDefault) {
+  EXPECT_TRUE(parseVoConfig("") == VoConfig());
+  const VoConfig c = parseVoConfig("tracker:\n  fb_max_error_px: 0.25\n");
+  VoConfig expected;
+  expected.tracker.fb_max_error_px = 0.25;
+  EXPECT_TRUE(c == expected);
+}
+
+TEST(VoConfig, SyntaxErrorsAndMissingFilesThrowConfigError) {
+  EXPECT_THROW(parseVoConfig("detector: [unclosed\n"), ConfigError);
+  EXPECT_THROW(parseVoConfig("- a list\n- not a map\n"), ConfigError);
+  try {
+    loadVoConfig("/nonexistent/vo.yaml");
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/vo.yaml"), std::string::npos);
+  }
+}
+
+TEST(VoConfig, DumpRoundTripsExactly) {
+  VoConfig c = loadVoConfig(sourceRoot() + "test/fixtures/vo_config_full.yaml");
+  c.motion.ransac_threshold_px = 0.1 + 0.2;  // not representable in few digits: needs the shortest exact text
+  c.detector.min_distance_px = 1.0 / 3.0;
+  const VoConfig back = parseVoConfig(c.dump());
+  EXPECT_TRUE(back == c) << c.dump() << "\nreads back as\n" << back.dump();
+  EXPECT_EQ(back.motion.ransac_threshold_px, 0.1 + 0.2);
+  EXPECT_TRUE(parseVoConfig(VoConfig().dump()) == VoConfig());
+  EXPECT_NE(c.dump().find("  model: homography\n"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace planetary_vo
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
