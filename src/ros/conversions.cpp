@@ -1,0 +1,159 @@
+/// @file conversions.cpp
+/// Core types <-> ROS messages (see conversions.h).
+
+#include "planetary_vo/ros_io/conversions.h"
+
+#include <stdexcept>
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <Eigen/Geometry>
+
+namespace planetary_vo::ros_io {
+
+ros::Time toStamp(const ros::Time& epoch, double dataset_time_s) {
+  return epoch + ros::Duration().fromSec(dataset_time_s);
+}
+
+double toDatasetTime(const ros::Time& epoch, const ros::Time& stamp) { return (stamp - epoch).toSec(); }
+
+std_msgs::Header makeHeader(const ros::Time& stamp, const std::string& frame_id) {
+  std_msgs::Header header;
+  header.stamp = stamp;
+  header.frame_id = frame_id;
+  return header;
+}
+
+sensor_msgs::CameraInfo toCameraInfo(const PinholeCamera& camera, const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  info.width = static_cast<uint32_t>(camera.width());
+  info.height = static_cast<uint32_t>(camera.height());
+  if (camera.distortionModel().empty()) {
+    info.distortion_model = "plumb_bob";
+    info.D.assign(5, 0.0);
+  } else {
+    info.distortion_model = camera.distortionModel();
+    info.D = camera.distortion();
+  }
+  info.K = {camera.fx(), 0.0, camera.cx(), 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 1.0};
+  info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  info.P = {camera.fx(), 0.0, camera.cx(), 0.0, 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
+  return info;
+}
+
+PinholeCamera fromCameraInfo(const sensor_msgs::CameraInfo& info) {
+  std::string model = info.distortion_model;
+  std::vector<double> D = info.D;
+  bool all_zero = true;
+  for (double d : D)
+    if (d != 0.0) all_zero = false;
+  if (all_zero) {
+    model.clear();
+    D.clear();
+  }
+  return PinholeCamera(static_cast<int>(info.width), static_cast<int>(info.height), info.K[0], info.K[4],
+                       info.K[2], info.K[5], model, D);
+}
+
+geometry_msgs::Pose toPoseMsg(const Pose& T_parent_child) {
+  geometry_msgs::Pose msg;
+  const Eigen::Vector3d t = T_parent_child.translation();
+  const Eigen::Quaterniond q(T_parent_child.rotation());
+  msg.position.x = t.x();
+  msg.position.y = t.y();
+  msg.position.z = t.z();
+  msg.orientation.x = q.x();
+  msg.orientation.y = q.y();
+  msg.orientation.z = q.z();
+  msg.orientation.w = q.w();
+  return msg;
+}
+
+namespace {
+
+Pose makePose(double x, double y, double z, double qx, double qy, double qz, double qw) {
+  Eigen::Quaterniond q(qw, qx, qy, qz);
+  if (q.norm() == 0.0)
+    q = Eigen::Quaterniond::Identity();
+  else
+    q.normalize();
+  Pose T = Pose::Identity();
+  T.linear() = q.toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, z);
+  return T;
+}
+
+}  // namespace
+
+Pose fromPoseMsg(const geometry_msgs::Pose& msg) {
+  return makePose(msg.position.x, msg.position.y, msg.position.z, msg.orientation.x, msg.orientation.y,
+                  msg.orientation.z, msg.orientation.w);
+}
+
+Pose fromTransformMsg(const geometry_msgs::Transform& msg) {
+  return makePose(msg.translation.x, msg.translation.y, msg.translation.z, msg.rotation.x, msg.rotation.y,
+                  msg.rotation.z, msg.rotation.w);
+}
+
+geometry_msgs::PoseStamped toPoseStamped(const Pose& T_parent_child, const std_msgs::Header& header) {
+  geometry_msgs::PoseStamped msg;
+  msg.header = header;
+  msg.pose = toPoseMsg(T_parent_child);
+  return msg;
+}
+
+geometry_msgs::TransformStamped toTransformStamped(const Pose& T_parent_child, const std_msgs::Header& header,
+                                                   const std::string& child_frame_id) {
+  const geometry_msgs::Pose pose = toPoseMsg(T_parent_child);
+  geometry_msgs::TransformStamped msg;
+  msg.header = header;
+  msg.child_frame_id = child_frame_id;
+  msg.transform.translation.x = pose.position.x;
+  msg.transform.translation.y = pose.position.y;
+  msg.transform.translation.z = pose.position.z;
+  msg.transform.rotation = pose.orientation;
+  return msg;
+}
+
+sensor_msgs::Imu toImu(const ImuSample& sample, const std_msgs::Header& header) {
+  sensor_msgs::Imu msg;
+  msg.header = header;
+  msg.orientation.w = 1.0;
+  msg.orientation_covariance[0] = -1.0;
+  msg.angular_velocity.x = sample.angular_velocity_radps.x();
+  msg.angular_velocity.y = sample.angular_velocity_radps.y();
+  msg.angular_velocity.z = sample.angular_velocity_radps.z();
+  msg.linear_acceleration.x = sample.specific_force_mps2.x();
+  msg.linear_acceleration.y = sample.specific_force_mps2.y();
+  msg.linear_acceleration.z = sample.specific_force_mps2.z();
+  return msg;
+}
+
+sensor_msgs::Range toRange(const AltimeterSample& sample, const std_msgs::Header& header,
+                           const AltimeterSpec& spec) {
+  sensor_msgs::Range msg;
+  msg.header = header;
+  msg.radiation_type = sensor_msgs::Range::INFRARED;
+  msg.field_of_view = static_cast<float>(spec.field_of_view_rad);
+  msg.min_range = static_cast<float>(spec.min_range_m);
+  msg.max_range = static_cast<float>(spec.max_range_m);
+  msg.range = static_cast<float>(sample.slant_range_m);
+  return msg;
+}
+
+sensor_msgs::ImagePtr toImageMsg(const cv::Mat& gray, const std_msgs::Header& header) {
+  std::string encoding;
+  if (gray.type() == CV_8UC1)
+    encoding = sensor_msgs::image_encodings::MONO8;
+  else if (gray.type() == CV_16UC1)
+    encoding = sensor_msgs::image_encodings::MONO16;
+  else
+    throw std::invalid_argument(
+        "toImageMsg: expected an 8- or 16-bit single-channel image, got OpenCV type " +
+        std::to_string(gray.type()));
+  return cv_bridge::CvImage(header, encoding, gray).toImageMsg();
+}
+
+}  // namespace planetary_vo::ros_io

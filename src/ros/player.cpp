@@ -1,0 +1,271 @@
+/// @file player.cpp
+/// The time-ordered message stream of a dataset, the bag writer and the command line (see player.h).
+
+#include "planetary_vo/ros_io/player.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <tuple>
+
+#include <rosbag/bag.h>
+#include <tf2_msgs/TFMessage.h>
+
+namespace planetary_vo::ros_io {
+
+namespace {
+
+constexpr double kAutoEpochThresholdS = 1.0e6;  // dataset times below this are a relative clock
+constexpr uint32_t kAutoEpochS = 1000000000;    // 2001-09-09T01:46:40Z
+constexpr double kSingleImageIntervalS = 0.1;
+
+std::string absoluteTopic(const char* topic) { return topic[0] == '/' ? topic : std::string("/") + topic; }
+
+}  // namespace
+
+const char* toString(StreamKind kind) {
+  switch (kind) {
+    case StreamKind::kImu:
+      return "imu";
+    case StreamKind::kAltimeter:
+      return "altimeter";
+    case StreamKind::kImage:
+      return "image";
+  }
+  return "?";
+}
+
+std::vector<StreamEvent> buildSchedule(const Dataset& dataset, size_t start_index) {
+  if (start_index >= dataset.size())
+    throw std::out_of_range("player: start index " + std::to_string(start_index) + " but the dataset has " +
+                            std::to_string(dataset.size()) + " images");
+  const double t_start = dataset.timestamp(start_index);
+  std::vector<StreamEvent> events;
+  events.reserve(dataset.size() - start_index + dataset.imu().size() + dataset.altimeter().size());
+  for (size_t i = start_index; i < dataset.size(); ++i)
+    events.push_back({dataset.timestamp(i), StreamKind::kImage, i});
+  for (size_t i = 0; i < dataset.imu().size(); ++i)
+    if (dataset.imu()[i].timestamp_s >= t_start)
+      events.push_back({dataset.imu()[i].timestamp_s, StreamKind::kImu, i});
+  for (size_t i = 0; i < dataset.altimeter().size(); ++i)
+    if (dataset.altimeter()[i].timestamp_s >= t_start)
+      events.push_back({dataset.altimeter()[i].timestamp_s, StreamKind::kAltimeter, i});
+  std::sort(events.begin(), events.end(), [](const StreamEvent& a, const StreamEvent& b) {
+    return std::make_tuple(a.time_s, static_cast<int>(a.kind), a.index) <
+           std::make_tuple(b.time_s, static_cast<int>(b.kind), b.index);
+  });
+  return events;
+}
+
+ros::Time chooseEpoch(const Dataset& dataset, double time_offset_s) {
+  if (time_offset_s >= 0.0) return ros::Time().fromSec(time_offset_s);
+  const double t0 = dataset.size() > 0 ? dataset.timestamp(0) : 0.0;
+  return t0 < kAutoEpochThresholdS ? ros::Time(kAutoEpochS, 0) : ros::Time(0, 0);
+}
+
+Player::Player(const Dataset& dataset, const PlayerOptions& options)
+    : dataset_(dataset), options_(options), epoch_(chooseEpoch(dataset, options.time_offset_s)) {
+  if (dataset.size() == 0)
+    throw std::invalid_argument("player: the dataset " + dataset.directory() + " is empty");
+  if (options_.altimeter_frame.empty()) options_.altimeter_frame = options_.camera_frame;
+  schedule_ = buildSchedule(dataset, options_.start_index);
+  const size_t num_images = dataset.size() - options_.start_index;
+  const double image_interval =
+      num_images > 1
+          ? (dataset.timestamps().back() - dataset.timestamp(options_.start_index)) / (num_images - 1)
+          : kSingleImageIntervalS;
+  loop_period_s_ = (schedule_.back().time_s - schedule_.front().time_s) + image_interval;
+  path_.header.frame_id = options_.world_frame;
+}
+
+ros::Time Player::stampOf(double dataset_time_s, size_t loop) const {
+  return toStamp(epoch_, dataset_time_s + static_cast<double>(loop) * loop_period_s_);
+}
+
+std::optional<ros::Time> Player::nextStamp() const {
+  if (position_ >= schedule_.size()) {
+    if (!options_.loop) return std::nullopt;
+    return stampOf(schedule_.front().time_s, loop_ + 1);
+  }
+  return stampOf(schedule_[position_].time_s, loop_);
+}
+
+bool Player::next(PlayerMessage* message) {
+  if (position_ >= schedule_.size()) {
+    if (!options_.loop) return false;
+    position_ = 0;
+    ++loop_;
+    path_.poses.clear();
+  }
+  const StreamEvent& event = schedule_[position_++];
+  PlayerMessage& m = *message;
+  m = PlayerMessage();
+  m.kind = event.kind;
+  m.index = event.index;
+  m.loop = loop_;
+  m.stamp = stampOf(event.time_s, loop_);
+  switch (event.kind) {
+    case StreamKind::kImu:
+      m.imu = toImu(dataset_.imu()[event.index], makeHeader(m.stamp, options_.camera_frame));
+      break;
+    case StreamKind::kAltimeter:
+      m.altimeter = toRange(dataset_.altimeter()[event.index], makeHeader(m.stamp, options_.altimeter_frame),
+                            options_.altimeter);
+      break;
+    case StreamKind::kImage: {
+      const std_msgs::Header camera_header = makeHeader(m.stamp, options_.camera_frame);
+      m.image = toImageMsg(dataset_.loadImage(event.index), camera_header);
+      m.camera_info =
+          boost::make_shared<sensor_msgs::CameraInfo>(toCameraInfo(dataset_.camera(), camera_header));
+      if (dataset_.hasGroundTruth()) {
+        const Pose& T_world_cam = dataset_.groundTruth().at(event.index).T_world_cam;
+        const std_msgs::Header world_header = makeHeader(m.stamp, options_.world_frame);
+        m.has_ground_truth = true;
+        m.gt_pose = toPoseStamped(T_world_cam, world_header);
+        m.gt_transform = toTransformStamped(T_world_cam, world_header, options_.ground_truth_frame);
+        if (options_.publish_path) {
+          path_.header.stamp = m.stamp;
+          path_.poses.push_back(m.gt_pose);
+          m.gt_path = boost::make_shared<nav_msgs::Path>(path_);
+        }
+      }
+      break;
+    }
+  }
+  return true;
+}
+
+size_t Player::drainTo(PlayerSink& sink) {
+  if (options_.loop) throw std::logic_error("Player::drainTo on a looping player would never end");
+  size_t count = 0;
+  PlayerMessage message;
+  while (next(&message)) {
+    sink.emit(message);
+    ++count;
+  }
+  return count;
+}
+
+namespace {
+
+/// Records the stream with the topic names the live node publishes (absolute, from the root namespace).
+class BagSink : public PlayerSink {
+ public:
+  explicit BagSink(const std::string& path) { bag_.open(path, rosbag::bagmode::Write); }
+
+  void emit(const PlayerMessage& m) override {
+    switch (m.kind) {
+      case StreamKind::kImu:
+        write(player_topics::kImu, m.stamp, m.imu);
+        break;
+      case StreamKind::kAltimeter:
+        write(player_topics::kAltimeter, m.stamp, m.altimeter);
+        break;
+      case StreamKind::kImage:
+        write(player_topics::kImage, m.stamp, *m.image);
+        write(player_topics::kCameraInfo, m.stamp, *m.camera_info);
+        if (m.has_ground_truth) {
+          write(player_topics::kGroundTruthPose, m.stamp, m.gt_pose);
+          if (m.gt_path) write(player_topics::kGroundTruthPath, m.stamp, *m.gt_path);
+          tf2_msgs::TFMessage tf;
+          tf.transforms.push_back(m.gt_transform);
+          write(player_topics::kTf, m.stamp, tf);
+        }
+        break;
+    }
+  }
+
+  size_t count() const { return count_; }
+  void close() { bag_.close(); }
+
+ private:
+  template <class Msg>
+  void write(const char* topic, const ros::Time& stamp, const Msg& msg) {
+    bag_.write(absoluteTopic(topic), stamp, msg);
+    ++count_;
+  }
+
+  rosbag::Bag bag_;
+  size_t count_ = 0;
+};
+
+}  // namespace
+
+size_t writeBag(const Dataset& dataset, const PlayerOptions& options, const std::string& bag_path) {
+  ros::Time::init();
+  PlayerOptions no_loop = options;
+  no_loop.loop = false;
+  Player player(dataset, no_loop);
+  BagSink sink(bag_path);
+  player.drainTo(sink);
+  sink.close();
+  return sink.count();
+}
+
+const char* playerUsage() {
+  return "usage: player [--dataset DIR] [--bag OUT.bag] [--start N] [--time-offset S] [--world-frame F]\n"
+         "              [--camera-frame F] [--gt-frame F] [--no-path] [ROS remappings and _param:=value]\n"
+         "  --bag OUT.bag  write the stream into a bag and exit (no master needed); otherwise run as a ROS "
+         "node\n"
+         "                 (node parameters ~dataset ~rate ~loop ~publish_clock ..., command line options "
+         "win)\n";
+}
+
+PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
+  PlayerCommandLine cl;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw std::invalid_argument("player: " + a + " needs a value");
+      return args[++i];
+    };
+    auto number = [&](const std::string& text) {
+      size_t used = 0;
+      double v = 0.0;
+      try {
+        v = std::stod(text, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != text.size())
+        throw std::invalid_argument("player: " + a + ": not a number: " + text);
+      return v;
+    };
+    if (a == "-h" || a == "--help") {
+      cl.help = true;
+    } else if (a == "--dataset") {
+      cl.dataset = value();
+    } else if (a == "--bag") {
+      cl.bag = value();
+    } else if (a == "--start") {
+      const std::string& text = value();
+      const double v = number(text);
+      if (v < 0 || v != static_cast<double>(static_cast<size_t>(v)))
+        throw std::invalid_argument("player: --start needs an image index, got " + text);
+      cl.start_index = static_cast<size_t>(v);
+    } else if (a == "--time-offset") {
+      cl.time_offset_s = number(value());
+    } else if (a == "--world-frame") {
+      cl.world_frame = value();
+    } else if (a == "--camera-frame") {
+      cl.camera_frame = value();
+    } else if (a == "--gt-frame") {
+      cl.ground_truth_frame = value();
+    } else if (a == "--no-path") {
+      cl.no_path = true;
+    } else {
+      throw std::invalid_argument("player: unknown argument '" + a + "'");
+    }
+  }
+  return cl;
+}
+
+void applyCommandLine(const PlayerCommandLine& cl, PlayerOptions* options) {
+  if (cl.start_index) options->start_index = *cl.start_index;
+  if (cl.time_offset_s) options->time_offset_s = *cl.time_offset_s;
+  if (cl.world_frame) options->world_frame = *cl.world_frame;
+  if (cl.camera_frame) options->camera_frame = *cl.camera_frame;
+  if (cl.ground_truth_frame) options->ground_truth_frame = *cl.ground_truth_frame;
+  if (cl.no_path) options->publish_path = false;
+}
+
+}  // namespace planetary_vo::ros_io

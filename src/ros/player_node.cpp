@@ -1,0 +1,226 @@
+/// @file player_node.cpp
+/// The `player` executable. `player --dataset DIR --bag OUT.bag` writes the stream into a bag and exits (no
+/// master); otherwise it is the ROS node `player`, publishing the stream of player.h paced by ~rate, with
+/// /clock, looping and pause/resume services. Parameters, topics and services: see the README table and
+/// launch/player.launch.
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <iostream>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <image_transport/image_transport.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include "planetary_vo/dataset/dataset.h"
+#include "planetary_vo/ros_io/player.h"
+
+namespace planetary_vo::ros_io {
+namespace {
+
+/// Publishes the stream on the node's topics.
+class LivePublisher : public PlayerSink {
+ public:
+  LivePublisher(ros::NodeHandle& nh, int queue_size, bool publish_clock) : image_transport_(nh) {
+    camera_pub_ = image_transport_.advertiseCamera(player_topics::kImage, queue_size);
+    pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>(player_topics::kGroundTruthPose, queue_size);
+    path_pub_ = nh.advertise<nav_msgs::Path>(player_topics::kGroundTruthPath, queue_size);
+    imu_pub_ = nh.advertise<sensor_msgs::Imu>(player_topics::kImu, queue_size);
+    altimeter_pub_ = nh.advertise<sensor_msgs::Range>(player_topics::kAltimeter, queue_size);
+    if (publish_clock) clock_pub_ = nh.advertise<rosgraph_msgs::Clock>(player_topics::kClock, queue_size);
+  }
+
+  void emit(const PlayerMessage& m) override {
+    if (clock_pub_) {
+      rosgraph_msgs::Clock clock;
+      clock.clock = m.stamp;
+      clock_pub_.publish(clock);
+    }
+    switch (m.kind) {
+      case StreamKind::kImu:
+        imu_pub_.publish(m.imu);
+        break;
+      case StreamKind::kAltimeter:
+        altimeter_pub_.publish(m.altimeter);
+        break;
+      case StreamKind::kImage:
+        camera_pub_.publish(m.image, m.camera_info);
+        if (m.has_ground_truth) {
+          pose_pub_.publish(m.gt_pose);
+          if (m.gt_path) path_pub_.publish(m.gt_path);
+          tf_broadcaster_.sendTransform(m.gt_transform);
+        }
+        break;
+    }
+  }
+
+ private:
+  image_transport::ImageTransport image_transport_;
+  image_transport::CameraPublisher camera_pub_;
+  ros::Publisher pose_pub_, path_pub_, imu_pub_, altimeter_pub_, clock_pub_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+};
+
+PlayerOptions readOptions(ros::NodeHandle& pnh, const PlayerCommandLine& cl) {
+  PlayerOptions o;
+  pnh.param("world_frame", o.world_frame, o.world_frame);
+  pnh.param("camera_frame", o.camera_frame, o.camera_frame);
+  pnh.param("altimeter_frame", o.altimeter_frame, o.altimeter_frame);
+  pnh.param("ground_truth_frame", o.ground_truth_frame, o.ground_truth_frame);
+  pnh.param("time_offset", o.time_offset_s, o.time_offset_s);
+  int start = 0;
+  pnh.param("start", start, start);
+  if (start < 0) throw std::invalid_argument("~start must be >= 0, got " + std::to_string(start));
+  o.start_index = static_cast<size_t>(start);
+  pnh.param("loop", o.loop, o.loop);
+  pnh.param("publish_path", o.publish_path, o.publish_path);
+  applyCommandLine(cl, &o);
+  return o;
+}
+
+std::string datasetDirectory(ros::NodeHandle& pnh, const PlayerCommandLine& cl) {
+  if (cl.dataset) return *cl.dataset;
+  std::string directory;
+  if (!pnh.getParam("dataset", directory) || directory.empty())
+    throw std::invalid_argument("no dataset: set ~dataset or pass --dataset DIR");
+  return directory;
+}
+
+/// The live node: paces the Player's stream on the wall clock and serves ~pause / ~resume.
+class PlayerNode {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  explicit PlayerNode(const PlayerCommandLine& cl)
+      : pnh_("~"),
+        dataset_(Dataset::open(datasetDirectory(pnh_, cl))),
+        player_(dataset_, readOptions(pnh_, cl)),
+        rate_(pnh_.param("rate", 1.0)),
+        sink_(nh_, std::max(1, pnh_.param("queue_size", 100)), pnh_.param("publish_clock", false)),
+        paused_(pnh_.param("start_paused", false)) {
+    if (!(rate_ >= 0.0)) throw std::invalid_argument("~rate must be >= 0 (0: as fast as possible)");
+    origin_ = Clock::now();
+    pause_started_ = origin_;
+    pause_srv_ = pnh_.advertiseService("pause", &PlayerNode::onPause, this);
+    resume_srv_ = pnh_.advertiseService("resume", &PlayerNode::onResume, this);
+    ROS_INFO_STREAM("player: " << dataset_.name() << " (" << toString(dataset_.format()) << ", "
+                               << dataset_.size() << " images, " << dataset_.imu().size() << " IMU, "
+                               << dataset_.altimeter().size() << " altimeter samples), stamps = "
+                               << player_.epoch().toSec() << " s + dataset time, rate " << rate_
+                               << (player_.options().loop ? ", looping" : "") << (paused_ ? ", paused" : ""));
+  }
+
+  /// Publishes until the stream ends (never with ~loop) or ROS shuts down.
+  void run() {
+    const std::chrono::milliseconds kPoll(100);  // bound on the reaction to a shutdown request
+    const std::optional<ros::Time> first = player_.nextStamp();
+    std::unique_lock<std::mutex> lock(mutex_);
+    PlayerMessage message;
+    while (ros::ok()) {
+      const std::optional<ros::Time> stamp = player_.nextStamp();
+      if (!stamp) break;
+      if (paused_) {
+        resumed_.wait_for(lock, kPoll);
+        continue;
+      }
+      if (rate_ > 0.0) {
+        const auto due = origin_ + std::chrono::duration_cast<Clock::duration>(
+                                       std::chrono::duration<double>((*stamp - *first).toSec() / rate_));
+        const auto now = Clock::now();
+        if (now < due) {
+          resumed_.wait_until(lock, std::min(due, now + kPoll));
+          continue;
+        }
+      }
+      player_.next(&message);
+      sink_.emit(message);
+      if (message.kind == StreamKind::kImage) ++images_published_;
+    }
+    if (ros::ok())
+      ROS_INFO_STREAM("player: done, " << images_published_
+                                       << " images published; the node stays up until shutdown");
+  }
+
+ private:
+  bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    // Taken while no message is being emitted: once this returns, nothing more is published until ~resume.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!paused_) {
+      paused_ = true;
+      pause_started_ = Clock::now();
+    }
+    res.success = true;
+    res.message = "paused after " + std::to_string(images_published_) + " images";
+    return true;
+  }
+
+  bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (paused_) {
+      paused_ = false;
+      origin_ += Clock::now() - pause_started_;  // the schedule continues where it stopped
+      resumed_.notify_all();
+    }
+    res.success = true;
+    res.message = "resumed after " + std::to_string(images_published_) + " images";
+    return true;
+  }
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  Dataset dataset_;
+  Player player_;
+  double rate_;
+  LivePublisher sink_;
+  std::mutex mutex_;
+  std::condition_variable resumed_;
+  bool paused_;
+  Clock::time_point origin_;  ///< wall time of the first message, shifted by the time spent paused
+  Clock::time_point pause_started_;
+  size_t images_published_ = 0;
+  ros::ServiceServer pause_srv_, resume_srv_;
+};
+
+}  // namespace
+}  // namespace planetary_vo::ros_io
+
+int main(int argc, char** argv) {
+  using namespace planetary_vo::ros_io;
+  const bool bag_mode =
+      std::any_of(argv + 1, argv + argc, [](const char* a) { return std::strcmp(a, "--bag") == 0; });
+  if (!bag_mode) ros::init(argc, argv, "player");  // removes remappings and _param:=value from argv
+  try {
+    const PlayerCommandLine cl = parsePlayerCommandLine(std::vector<std::string>(argv + 1, argv + argc));
+    if (cl.help) {
+      std::cout << playerUsage();
+      return 0;
+    }
+    if (bag_mode) {
+      if (!cl.dataset) throw std::invalid_argument("--bag needs --dataset DIR");
+      const planetary_vo::Dataset dataset = planetary_vo::Dataset::open(*cl.dataset);
+      PlayerOptions options;
+      applyCommandLine(cl, &options);
+      const size_t count = writeBag(dataset, options, *cl.bag);
+      std::cout << "player: wrote " << count << " messages of " << dataset.name() << " to " << *cl.bag
+                << "\n";
+      return 0;
+    }
+    PlayerNode node(cl);
+    ros::AsyncSpinner spinner(1);  // services
+    spinner.start();
+    node.run();
+    ros::waitForShutdown();
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "player: " << e.what() << "\n" << playerUsage();
+    return 1;
+  }
+}

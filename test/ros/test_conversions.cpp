@@ -1,0 +1,167 @@
+/// Conversions between core types and ROS messages (no master).
+
+#include <cmath>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "planetary_vo/ros_io/conversions.h"
+
+namespace planetary_vo::ros_io {
+namespace {
+
+Pose somePose() {
+  Pose T = Pose::Identity();
+  T.linear() =
+      (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-1.2, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1.5, -2.0, 1234.25);
+  return T;
+}
+
+TEST(Conversions, StampIsEpochPlusExactDatasetTime) {
+  const ros::Time epoch(1000000000, 0);
+  for (int k = 0; k < 100; ++k) {
+    const ros::Time stamp = toStamp(epoch, k / 10.0);
+    EXPECT_EQ(stamp.sec, 1000000000u + static_cast<uint32_t>(k / 10));
+    EXPECT_EQ(stamp.nsec, static_cast<uint32_t>(k % 10) * 100000000u) << "k = " << k;
+    EXPECT_NEAR(toDatasetTime(epoch, stamp), k / 10.0, 1e-12);
+  }
+  EXPECT_EQ(toStamp(ros::Time(0, 0), 1403636579.763555527), ros::Time(1403636579, 763555527));
+}
+
+TEST(Conversions, CameraInfoWithoutDistortion) {
+  const PinholeCamera camera(1241, 376, 718.856, 718.856, 607.1928, 185.2157);
+  const sensor_msgs::CameraInfo info = toCameraInfo(camera, makeHeader(ros::Time(5, 6), "camera_optical"));
+  EXPECT_EQ(info.header.stamp, ros::Time(5, 6));
+  EXPECT_EQ(info.header.frame_id, "camera_optical");
+  EXPECT_EQ(info.width, 1241u);
+  EXPECT_EQ(info.height, 376u);
+  EXPECT_EQ(info.distortion_model, "plumb_bob");
+  ASSERT_EQ(info.D.size(), 5u);
+  for (double d : info.D) EXPECT_EQ(d, 0.0);
+  const boost::array<double, 9> K = {718.856, 0, 607.1928, 0, 718.856, 185.2157, 0, 0, 1};
+  EXPECT_EQ(info.K, K);
+  const boost::array<double, 9> R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  EXPECT_EQ(info.R, R);
+  const boost::array<double, 12> P = {718.856, 0, 607.1928, 0, 0, 718.856, 185.2157, 0, 0, 0, 1, 0};
+  EXPECT_EQ(info.P, P);
+  EXPECT_EQ(fromCameraInfo(info), camera);
+}
+
+TEST(Conversions, CameraInfoKeepsDistortionModelAndCoefficients) {
+  const PinholeCamera plumb(752, 480, 458.654, 457.296, 367.215, 248.375, "plumb_bob",
+                            {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0});
+  const sensor_msgs::CameraInfo info = toCameraInfo(plumb, std_msgs::Header());
+  EXPECT_EQ(info.distortion_model, "plumb_bob");
+  EXPECT_EQ(info.D, plumb.distortion());
+  EXPECT_EQ(info.K[4], 457.296);
+  EXPECT_EQ(fromCameraInfo(info), plumb);
+
+  const PinholeCamera fisheye(640, 480, 300.0, 301.0, 320.5, 240.5, "equidistant",
+                              {0.1, -0.01, 0.002, -0.0003});
+  const sensor_msgs::CameraInfo info2 = toCameraInfo(fisheye, std_msgs::Header());
+  EXPECT_EQ(info2.distortion_model, "equidistant");
+  EXPECT_EQ(info2.D, fisheye.distortion());
+  EXPECT_EQ(fromCameraInfo(info2), fisheye);
+}
+
+TEST(Conversions, PoseRoundTripAndQuaternion) {
+  const Pose T = somePose();
+  const geometry_msgs::Pose msg = toPoseMsg(T);
+  EXPECT_DOUBLE_EQ(msg.position.x, 1.5);
+  EXPECT_DOUBLE_EQ(msg.position.y, -2.0);
+  EXPECT_DOUBLE_EQ(msg.position.z, 1234.25);
+  const Eigen::Quaterniond q(msg.orientation.w, msg.orientation.x, msg.orientation.y, msg.orientation.z);
+  EXPECT_NEAR(q.norm(), 1.0, 1e-12);
+  EXPECT_TRUE(q.toRotationMatrix().isApprox(T.rotation(), 1e-12));
+  EXPECT_TRUE(fromPoseMsg(msg).isApprox(T, 1e-12));
+
+  const geometry_msgs::PoseStamped stamped = toPoseStamped(T, makeHeader(ros::Time(7, 0), "world"));
+  EXPECT_EQ(stamped.header.frame_id, "world");
+  EXPECT_EQ(stamped.header.stamp, ros::Time(7, 0));
+  EXPECT_EQ(stamped.pose, msg);
+}
+
+TEST(Conversions, PoseFromMessageNormalisesTheQuaternion) {
+  geometry_msgs::Pose msg;
+  msg.orientation.w = 2.0;  // not unit
+  msg.position.x = 3.0;
+  Pose T = fromPoseMsg(msg);
+  EXPECT_TRUE(T.rotation().isApprox(Eigen::Matrix3d::Identity(), 1e-15));
+  EXPECT_EQ(T.translation().x(), 3.0);
+  msg.orientation.w = 0.0;  // all zero: identity, not NaN
+  T = fromPoseMsg(msg);
+  EXPECT_TRUE(T.rotation().isApprox(Eigen::Matrix3d::Identity(), 1e-15));
+}
+
+TEST(Conversions, TransformStampedIsParentToChild) {
+  const Pose T_world_cam = somePose();
+  const geometry_msgs::TransformStamped tf =
+      toTransformStamped(T_world_cam, makeHeader(ros::Time(9, 1), "world"), "camera_gt");
+  EXPECT_EQ(tf.header.frame_id, "world");
+  EXPECT_EQ(tf.child_frame_id, "camera_gt");
+  EXPECT_EQ(tf.header.stamp, ros::Time(9, 1));
+  EXPECT_DOUBLE_EQ(tf.transform.translation.z, 1234.25);
+  EXPECT_TRUE(fromTransformMsg(tf.transform).isApprox(T_world_cam, 1e-12));
+  // The camera centre maps to the translation, a point 1 m ahead on the optical axis to centre + R * z.
+  const Pose T = fromTransformMsg(tf.transform);
+  EXPECT_TRUE(
+      (T * Eigen::Vector3d(0, 0, 1)).isApprox(T_world_cam.translation() + T_world_cam.rotation().col(2)));
+}
+
+TEST(Conversions, ImuCarriesRateAndSpecificForceWithoutOrientation) {
+  ImuSample s;
+  s.timestamp_s = 3.25;
+  s.angular_velocity_radps = Eigen::Vector3d(0.1, -0.2, 0.3);
+  s.specific_force_mps2 = Eigen::Vector3d(0.0, 0.5, -1.62);
+  const sensor_msgs::Imu msg = toImu(s, makeHeader(ros::Time(2, 0), "camera_optical"));
+  EXPECT_EQ(msg.header.frame_id, "camera_optical");
+  EXPECT_EQ(msg.angular_velocity.x, 0.1);
+  EXPECT_EQ(msg.angular_velocity.y, -0.2);
+  EXPECT_EQ(msg.angular_velocity.z, 0.3);
+  EXPECT_EQ(msg.linear_acceleration.y, 0.5);
+  EXPECT_EQ(msg.linear_acceleration.z, -1.62);
+  EXPECT_EQ(msg.orientation_covariance[0], -1.0);
+}
+
+TEST(Conversions, RangeIsTheSlantRange) {
+  AltimeterSample s;
+  s.slant_range_m = 1523.5;
+  s.altitude_m = 1500.0;
+  AltimeterSpec spec;
+  spec.max_range_m = 20000.0;
+  const sensor_msgs::Range msg = toRange(s, makeHeader(ros::Time(4, 0), "camera_optical"), spec);
+  EXPECT_EQ(msg.range, 1523.5f);
+  EXPECT_EQ(msg.radiation_type, sensor_msgs::Range::INFRARED);
+  EXPECT_EQ(msg.max_range, 20000.0f);
+  EXPECT_GT(msg.field_of_view, 0.0f);
+  EXPECT_LT(msg.min_range, msg.range);
+  EXPECT_EQ(msg.header.frame_id, "camera_optical");
+}
+
+TEST(Conversions, ImageMono8AndMono16) {
+  cv::Mat gray(3, 4, CV_8UC1);
+  for (int i = 0; i < 12; ++i) gray.at<uint8_t>(i / 4, i % 4) = static_cast<uint8_t>(10 * i);
+  const sensor_msgs::ImagePtr msg = toImageMsg(gray, makeHeader(ros::Time(1, 2), "camera_optical"));
+  EXPECT_EQ(msg->encoding, "mono8");
+  EXPECT_EQ(msg->width, 4u);
+  EXPECT_EQ(msg->height, 3u);
+  EXPECT_EQ(msg->step, 4u);
+  EXPECT_EQ(msg->header.stamp, ros::Time(1, 2));
+  ASSERT_EQ(msg->data.size(), 12u);
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(msg->data[i], 10 * i);
+
+  cv::Mat gray16(2, 2, CV_16UC1, cv::Scalar(40000));
+  const sensor_msgs::ImagePtr msg16 = toImageMsg(gray16, std_msgs::Header());
+  EXPECT_EQ(msg16->encoding, "mono16");
+  EXPECT_EQ(msg16->step, 4u);
+
+  EXPECT_THROW(toImageMsg(cv::Mat(2, 2, CV_8UC3), std_msgs::Header()), std::invalid_argument);
+  EXPECT_THROW(toImageMsg(cv::Mat(2, 2, CV_32FC1), std_msgs::Header()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace planetary_vo::ros_io
