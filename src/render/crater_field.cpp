@@ -1,0 +1,146 @@
+#include "planetary_vo/render/crater_field.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "noise.h"
+
+namespace planetary_vo::render {
+
+using detail::hash3;
+using detail::HashRng;
+using detail::smoothstep;
+
+namespace {
+constexpr double kEjectaRadius = 2.5;  // ejecta blanket and rim uplift reach 2.5 crater radii
+constexpr double kCellPerDiameter =
+    2.5;  // cell = 2.5 D_k >= ejecta radius of the largest crater of the class
+
+// Polynomial smooth minimum: rounds the rim crest of degraded craters over a width k (in metres of height).
+inline double smin(double a, double b, double k) {
+  if (k <= 0) return std::min(a, b);
+  const double h = std::max(k - std::abs(a - b), 0.0) / k;
+  return std::min(a, b) - h * h * k * 0.25;
+}
+}  // namespace
+
+CraterField::CraterField(uint64_t seed, const CraterFieldParams& params) : seed_(seed), params_(params) {
+  num_classes_ =
+      std::max(0, static_cast<int>(std::floor(std::log2(params.max_diameter_m / params.min_diameter_m))));
+  // The expected count per cell is the same for every class (cell ~ D_k): density * 0.75 * 2.5^2.
+  lambda_ = params.density * 0.75 * kCellPerDiameter * kCellPerDiameter;
+  exp_minus_lambda_ = std::exp(-lambda_);
+}
+
+double CraterField::classDiameter(int k) const { return params_.min_diameter_m * std::ldexp(1.0, k); }
+double CraterField::cellSize(int k) const { return kCellPerDiameter * classDiameter(k); }
+
+int CraterField::cellCraters(int k, int64_t i, int64_t j, Crater* out) const {
+  HashRng rng(hash3(seed_ ^ 0xC4A7E5ull, i, j, k));
+  const double dk = classDiameter(k), cell = cellSize(k);
+  // Expected number in the cell from the cumulative law: density * (D_k^-2 - (2 D_k)^-2) * cell^2.
+  const double lambda = lambda_;
+  // Poisson draw by inversion (lambda is well below 1, so kMaxPerCell truncation is negligible).
+  const double u = rng.uniform();
+  int n = 0;
+  double p = exp_minus_lambda_, cdf = p;
+  while (u > cdf && n < kMaxPerCell) {
+    ++n;
+    p *= lambda / n;
+    cdf += p;
+  }
+  for (int c = 0; c < n; ++c) {
+    Crater& cr = out[c];
+    cr.center = {(i + rng.uniform()) * cell, (j + rng.uniform()) * cell};
+    // D^-3 density on [D_k, 2 D_k) by inversion: the cumulative D^-2 law holds inside the class too.
+    cr.diameter_m = dk / std::sqrt(1.0 - 0.75 * rng.uniform());
+    const double uf = rng.uniform();
+    cr.freshness = params_.fresh_exponent == 3.0 ? uf * uf * uf : std::pow(uf, params_.fresh_exponent);
+    const double f = cr.freshness;
+    cr.depth_m = cr.diameter_m * (0.2 * f + 0.04 * (1.0 - f));         // d/D: 0.2 fresh, 0.04 degraded
+    cr.rim_height_m = cr.diameter_m * (0.04 * f + 0.004 * (1.0 - f));  // rim uplift erodes away with age
+    cr.id = hash3(seed_, i, j, k * 8 + c);
+  }
+  return n;
+}
+
+double CraterField::craterProfile(const Crater& c, double r) {
+  const double radius = 0.5 * c.diameter_m;
+  const double rho = r / radius;
+  if (rho >= kEjectaRadius) return 0.0;
+  const double inner = c.rim_height_m - c.depth_m * (1.0 - rho * rho);  // parabolic bowl
+  constexpr double kFar = 1.0 / (kEjectaRadius * kEjectaRadius * kEjectaRadius);
+  const double rr = std::max(rho, 1e-3);
+  const double outer =
+      c.rim_height_m * (1.0 / (rr * rr * rr) - kFar) / (1.0 - kFar);  // ejecta thinning ~ r^-3
+  // Fresh rims are sharp crests; degraded rims are rounded over ~30 % of the depth.
+  const double k = c.depth_m * (0.02 + 0.3 * (1.0 - c.freshness));
+  return smin(inner, outer, k);
+}
+
+void CraterField::addBoulders(const Crater& c, double x, double y, double rho, double lod_m,
+                              Contribution* out) const {
+  // Largest block ~0.29 D^0.66 (Bart & Melosh 2010), capped for small craters.
+  const double b_max = std::min(0.29 * std::pow(c.diameter_m, 0.66), 0.05 * c.diameter_m);
+  const double fade = smoothstep(lod_m, 2.0 * lod_m, b_max);
+  if (fade <= 0.0 || rho < 0.5 || rho > 2.3) return;
+  const double cell = 1.5 * b_max;
+  const double lx = x - c.center.x(), ly = y - c.center.y();
+  const int64_t ci = static_cast<int64_t>(std::floor(lx / cell)),
+                cj = static_cast<int64_t>(std::floor(ly / cell));
+  const double radius = 0.5 * c.diameter_m;
+  for (int64_t i = ci - 1; i <= ci + 1; ++i) {
+    for (int64_t j = cj - 1; j <= cj + 1; ++j) {
+      HashRng rng(hash3(c.id, i, j, 77));
+      const double bx = (i + rng.uniform()) * cell, by = (j + rng.uniform()) * cell;
+      const double brho = std::hypot(bx, by) / radius;
+      // Blocks are concentrated on the rim and the proximal ejecta, fewer on the walls, none far out.
+      const double envelope = std::exp(-std::pow((brho - 1.1) / 0.4, 2)) + (brho < 1.0 ? 0.25 * brho : 0.0);
+      if (rng.uniform() > 0.6 * fade * envelope) continue;
+      const double diameter = b_max * (0.25 + 0.75 * std::pow(rng.uniform(), 3.0));
+      const double rb = 0.5 * diameter;
+      const double d2 = (lx - bx) * (lx - bx) + (ly - by) * (ly - by);
+      if (d2 >= rb * rb) continue;
+      const double w = smoothstep(0.5 * lod_m, lod_m, diameter);
+      out->height_m += w * 0.7 * rb * std::sqrt(1.0 - d2 / (rb * rb));  // half-buried ellipsoidal block
+      out->albedo += w * 0.03;
+    }
+  }
+}
+
+CraterField::Contribution CraterField::evaluate(double x, double y, double lod_m) const {
+  Contribution sum;
+  Crater craters[kMaxPerCell];
+  for (int k = num_classes_ - 1; k >= 0; --k) {
+    const double dk = classDiameter(k);
+    if (2.0 * dk <= 2.0 * lod_m) break;  // whole class below two footprints: invisible, skip (no aliasing)
+    const double cell = cellSize(k);
+    const int64_t ci = static_cast<int64_t>(std::floor(x / cell)),
+                  cj = static_cast<int64_t>(std::floor(y / cell));
+    for (int64_t i = ci - 1; i <= ci + 1; ++i) {
+      for (int64_t j = cj - 1; j <= cj + 1; ++j) {
+        const int n = cellCraters(k, i, j, craters);
+        for (int c = 0; c < n; ++c) {
+          const Crater& cr = craters[c];
+          const double r = std::hypot(x - cr.center.x(), y - cr.center.y());
+          const double radius = 0.5 * cr.diameter_m;
+          if (r >= kEjectaRadius * radius) continue;
+          const double w = smoothstep(2.0 * lod_m, 4.0 * lod_m, cr.diameter_m);
+          if (w <= 0.0) continue;
+          sum.height_m += w * craterProfile(cr, r);
+          const double rho = r / radius;
+          if (cr.freshness > 0.45) {
+            // Fresh ejecta and walls expose immature, brighter regolith; it darkens with exposure age.
+            const double bright = (cr.freshness - 0.45) / 0.55;
+            const double env = rho < 1.0 ? 0.5 + 0.5 * rho * rho : (1.0 - (rho - 1.0) / 1.5) / (rho * rho);
+            sum.albedo += w * 0.07 * bright * env;
+            if (cr.diameter_m >= params_.boulder_min_crater_m) addBoulders(cr, x, y, rho, lod_m, &sum);
+          }
+        }
+      }
+    }
+  }
+  return sum;
+}
+
+}  // namespace planetary_vo::render

@@ -1,0 +1,70 @@
+#include "planetary_vo/render/terrain.h"
+
+#include <cmath>
+
+#include "noise.h"
+
+namespace planetary_vo::render {
+
+using detail::gradientNoise;
+
+LunarTerrain::LunarTerrain(std::shared_ptr<const LunarDem> dem, const DemPlacement& placement,
+                           const TerrainParams& params)
+    : dem_(std::move(dem)), placement_(placement), params_(params), craters_(params.seed, params.craters) {
+  double wavelength = params_.roughness_max_wavelength_m;
+  for (int octave = 0; octave < 40; ++octave, wavelength *= 0.5)
+    octave_amplitude_[octave] = params_.roughness_rms_1m * std::pow(wavelength, params_.hurst);
+}
+
+double LunarTerrain::demHeight(double x, double y) const {
+  const Eigen::Vector2d en = placement_.worldToDem(x, y);
+  return dem_->height(en.x(), en.y()) - placement_.datum_m;
+}
+
+LunarTerrain::Sample LunarTerrain::sample(double x, double y, double lod_m) const {
+  Sample s;
+  s.height_m = demHeight(x, y);
+
+  // Fractal roughness: octaves of gradient noise from the largest wavelength down to two footprints; the last
+  // octave fades in over one octave so the surface changes continuously with the LOD.
+  const double min_wavelength = 2.0 * lod_m;
+  double wavelength = params_.roughness_max_wavelength_m;
+  const uint64_t rough_seed = params_.seed * 0x9E3779B97F4A7C15ull + 17;
+  for (int octave = 0; wavelength >= min_wavelength && octave < 40; ++octave, wavelength *= 0.5) {
+    const double ratio = wavelength / min_wavelength;
+    const double weight = ratio >= 2.0 ? 1.0 : std::log2(ratio);
+    const double amplitude = octave_amplitude_[octave];
+    // A per-octave offset decorrelates the lattices of successive octaves (no grid-aligned artefacts).
+    s.height_m +=
+        weight * amplitude *
+        gradientNoise(rough_seed + octave, x / wavelength + 0.37 * octave, y / wavelength - 0.71 * octave);
+  }
+
+  const CraterField::Contribution c = craters_.evaluate(x, y, lod_m);
+  s.height_m += c.height_m;
+
+  // Albedo: mature regolith with km-scale patches, plus fresh crater ejecta.
+  const uint64_t albedo_seed = params_.seed * 31 + 5;
+  s.albedo = params_.albedo +
+             params_.albedo_variation * (gradientNoise(albedo_seed, x / 3000.0, y / 3000.0) +
+                                         0.5 * gradientNoise(albedo_seed + 1, x / 700.0, y / 700.0) +
+                                         0.3 * detail::smoothstep(80.0, 40.0, lod_m) *
+                                             gradientNoise(albedo_seed + 2, x / 80.0, y / 80.0)) +
+             c.albedo;
+  return s;
+}
+
+Eigen::Vector3d LunarTerrain::normal(double x, double y, double lod_m) const {
+  const double d = lod_m;
+  const double dhdx = (height(x + d, y, lod_m) - height(x - d, y, lod_m)) / (2 * d);
+  const double dhdy = (height(x, y + d, lod_m) - height(x, y - d, lod_m)) / (2 * d);
+  return Eigen::Vector3d(-dhdx, -dhdy, 1.0).normalized();
+}
+
+double LunarTerrain::maxProceduralReliefM() const {
+  const double dmax = params_.craters.max_diameter_m;
+  return 0.24 * dmax +
+         2.0 * params_.roughness_rms_1m * std::pow(params_.roughness_max_wavelength_m, params_.hurst);
+}
+
+}  // namespace planetary_vo::render
