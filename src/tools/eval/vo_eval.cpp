@@ -1,0 +1,190 @@
+/// @file vo_eval.cpp
+/// vo_eval: evaluates an estimated trajectory against ground truth (TUM or KITTI files): association by time
+/// stamp, Umeyama alignment, ATE / RPE / rotation / landing-site errors; text report, JSON and PNG plots.
+/// See docs/evaluation.md.
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "planetary_vo/dataset/dataset.h"
+#include "planetary_vo/eval/evaluation_report.h"
+
+using namespace planetary_vo;
+
+namespace {
+
+const char* kUsage =
+    "usage: vo_eval --gt FILE --est FILE [--align sim3|se3|none] [--align-frames N] [--max-dt S]\n"
+    "               [--rpe-frames 1,10] [--rpe-distances M1,M2,...] [--json FILE] [--plot DIR]\n"
+    "               [--plot-script PATH] [--title TEXT] [--axes landing|xyz]\n"
+    "  --gt, --est      trajectories, TUM (t tx ty tz qx qy qz qw) or KITTI (12 values, 10 Hz) files\n"
+    "  --align          alignment of the estimate onto the ground truth (default sim3)\n"
+    "  --align-frames   align on the first N associated poses only (default 0: all)\n"
+    "  --max-dt         association tolerance in seconds (default 0.02)\n"
+    "  --rpe-frames     RPE frame deltas (default 1,10)\n"
+    "  --rpe-distances  RPE distance deltas in metres (default 10,20,30,40,50 % of the path length)\n"
+    "  --json           write the results as JSON\n"
+    "  --plot           write PNG plots (and pose_errors.csv) into DIR with scripts/plot_trajectory.py\n"
+    "  --plot-script    the plot script; default $PLANETARY_VO_ROOT/scripts/plot_trajectory.py, else found "
+    "by\n"
+    "                   walking up from this executable to the package (package.xml beside scripts/)\n"
+    "  --axes           plot axis names: landing (crossrange x, downrange y, altitude z; default) or xyz\n";
+
+bool isFile(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+template <typename T>
+std::vector<T> parseList(const std::string& text, const std::string& option) {
+  std::vector<T> values;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    std::istringstream in(item);
+    T v{};
+    if (!(in >> v) || !in.eof()) throw EvalError("bad value '" + item + "' in " + option);
+    values.push_back(v);
+  }
+  return values;
+}
+
+double parseNumber(const std::string& text, const std::string& option) {
+  const std::vector<double> v = parseList<double>(text, option);
+  if (v.size() != 1) throw EvalError(option + " takes one number, got '" + text + "'");
+  return v[0];
+}
+
+/// The plot script: the option, else $PLANETARY_VO_ROOT, else the first folder up from the executable that is
+/// the package (package.xml + scripts/plot_trajectory.py), a catkin workspace holding it in src/, or an
+/// install space (share/planetary_vo/scripts/).
+std::string findPlotScript() {
+  const std::string relative = "scripts/plot_trajectory.py";
+  if (const char* root = std::getenv("PLANETARY_VO_ROOT"); root && *root) {
+    if (isFile(std::string(root) + "/" + relative)) return std::string(root) + "/" + relative;
+  }
+  char exe[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n <= 0) return "";
+  std::string dir(exe, static_cast<size_t>(n));
+  while (dir.size() > 1) {
+    dir = dir.substr(0, dir.find_last_of('/'));
+    if (dir.empty()) dir = "/";
+    for (const std::string& candidate :
+         {dir + "/", dir + "/src/planetary_vo/", dir + "/share/planetary_vo/"}) {
+      if (isFile(candidate + "package.xml") && isFile(candidate + relative)) return candidate + relative;
+    }
+  }
+  return "";
+}
+
+std::string shellQuote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+Trajectory readOrExplain(const std::string& path, const char* what) {
+  Trajectory t = readTrajectory(path);  // DatasetError names the file and line
+  if (t.empty()) throw EvalError(std::string(what) + " " + path + " has no pose");
+  return t;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string gt_path, est_path, json_path, plot_dir, plot_script, title, axes = "landing";
+  EvaluationOptions options;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg == "-h" || arg == "--help") {
+        std::cout << kUsage;
+        return 0;
+      }
+      if (i + 1 >= argc) throw EvalError("option " + arg + " needs a value (or is unknown)");
+      const std::string value = argv[++i];
+      if (arg == "--gt") {
+        gt_path = value;
+      } else if (arg == "--est") {
+        est_path = value;
+      } else if (arg == "--align") {
+        options.alignment = parseAlignmentMode(value);
+      } else if (arg == "--align-frames") {
+        const double n = parseNumber(value, arg);
+        if (n < 0 || n != static_cast<size_t>(n))
+          throw EvalError("--align-frames takes a count, got " + value);
+        options.align_num_pairs = static_cast<size_t>(n);
+      } else if (arg == "--max-dt") {
+        options.max_dt_s = parseNumber(value, arg);
+        if (!(options.max_dt_s >= 0.0)) throw EvalError("--max-dt must be >= 0");
+      } else if (arg == "--rpe-frames") {
+        options.rpe_frame_deltas = parseList<int>(value, arg);
+      } else if (arg == "--rpe-distances") {
+        options.rpe_distance_deltas_m = parseList<double>(value, arg);
+      } else if (arg == "--json") {
+        json_path = value;
+      } else if (arg == "--plot") {
+        plot_dir = value;
+      } else if (arg == "--plot-script") {
+        plot_script = value;
+      } else if (arg == "--axes") {
+        if (value != "landing" && value != "xyz")
+          throw EvalError("--axes takes landing or xyz, got " + value);
+        axes = value;
+      } else if (arg == "--title") {
+        title = value;
+      } else {
+        throw EvalError("unknown option " + arg);
+      }
+    }
+    if (gt_path.empty() || est_path.empty()) throw EvalError("--gt and --est are required");
+  } catch (const std::exception& e) {
+    std::cerr << "vo_eval: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+
+  try {
+    const Trajectory gt = readOrExplain(gt_path, "ground truth");
+    const Trajectory est = readOrExplain(est_path, "estimate");
+    const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options);
+    std::cout << "ground truth: " << gt_path << "\nestimate:     " << est_path << "\n\n" << formatReport(ev);
+    if (!json_path.empty()) {
+      writeJson(json_path, ev);
+      std::cout << "\nJSON written to " << json_path << "\n";
+    }
+    if (!plot_dir.empty()) {
+      if (plot_script.empty()) plot_script = findPlotScript();
+      if (plot_script.empty() || !isFile(plot_script))
+        throw EvalError("plot script not found" +
+                        (plot_script.empty() ? std::string() : " at " + plot_script) +
+                        ": give --plot-script or set PLANETARY_VO_ROOT to the package folder");
+      if (std::system(("mkdir -p " + shellQuote(plot_dir)).c_str()) != 0)
+        throw EvalError("cannot create " + plot_dir);
+      const std::string csv = plot_dir + "/pose_errors.csv";
+      writePoseErrorsCsv(csv, ev);
+      if (title.empty()) title = est_path.substr(est_path.find_last_of('/') + 1);
+      char subtitle[256];
+      std::snprintf(subtitle, sizeof(subtitle), "align %s, scale %.4f, ATE RMSE %.3f m (%.2f %% of %.1f m)",
+                    toString(options.alignment), ev.alignment.scale, ev.ate_m.rmse, ev.ate_rmse_percent,
+                    ev.gt_path_length_m);
+      const std::string command = "/usr/bin/python3 " + shellQuote(plot_script) + " --csv " +
+                                  shellQuote(csv) + " --out " + shellQuote(plot_dir) + " --title " +
+                                  shellQuote(title) + " --subtitle " + shellQuote(subtitle) + " --axes " +
+                                  axes;
+      std::cout.flush();  // the script's own output comes after the report
+      const int rc = std::system(command.c_str());
+      if (rc != 0) throw EvalError("plotting failed (exit status " + std::to_string(rc) + "): " + command);
+      std::cout << "plots written to " << plot_dir << "\n";
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "vo_eval: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
