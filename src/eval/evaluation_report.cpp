@@ -57,10 +57,12 @@ class Json {
     quoted(value);
     return *this;
   }
-  Json& vector(const std::string& key, const Eigen::Vector3d& v) {
-    beginArray(key);
-    for (int i = 0; i < 3; ++i) number("", v[i]);
-    return endArray();
+  Json& vector(const std::string& key, const Eigen::Vector3d& v) {  // on one line: [x, y, z]
+    prefix(key);
+    char text[96];
+    std::snprintf(text, sizeof(text), "[%.10g, %.10g, %.10g]", v.x(), v.y(), v.z());
+    out_ << (v.allFinite() ? text : "[null, null, null]");
+    return *this;
   }
   Json& stats(const std::string& key, const ErrorStatistics& s) {
     beginObject(key);
@@ -135,7 +137,9 @@ std::string formatReport(const TrajectoryEvaluation& ev) {
   r << "  translation  rmse " << format("%.4f", ev.ate_rmse_percent) << " % of the path length\n";
   r << "  rotation     " << statsLine(ev.rotation_deg, "deg") << "\n";
   r << "  final position error " << format("%.4f", ev.final_position_error_m) << " m\n";
-  r << "\nPosition error in the landing-site frame (estimate - ground truth, signed)\n";
+  r << "\nPosition error per world axis, estimate - ground truth (landing-site frame: x crossrange, y "
+       "downrange, "
+       "z altitude)\n";
   r << "  crossrange x " << statsLine(ev.crossrange_error_m, "m") << "\n";
   r << "  downrange  y " << statsLine(ev.downrange_error_m, "m") << "\n";
   r << "  altitude   z " << statsLine(ev.altitude_error_m, "m") << "\n";
