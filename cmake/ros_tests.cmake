@@ -5,8 +5,8 @@
 #                          IMU/altimeter), looping, start index, epoch, bag writer + rosbag C++ read-back
 #   rostests (test/ros/*.test with the gtest node test_player_node):
 #     player_live          player node on the KITTI clip: images, camera_info, ground truth, path, tf, /clock, pause
-#     player_live_synthetic  the same on the synthetic dataset: IMU and altimeter too
-#     player_bag           `rosbag play` of the bag written at build time by `player --dataset --bag`, same checks
+#     player_live (synthetic dataset ARGS)  the same with IMU and altimeter
+#     player_bag (KITTI, synthetic)  `rosbag play` of the bags written at build time by `player --bag`, same checks
 find_package(rostest REQUIRED)
 
 set(PLANETARY_VO_ROS_TEST_OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/test_output)
@@ -14,13 +14,62 @@ set(PLANETARY_VO_ROS_TEST_OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/test_output)
 catkin_add_gtest(ros_test_conversions test/ros/test_conversions.cpp)
 if(TARGET ros_test_conversions)
   target_link_libraries(ros_test_conversions planetary_vo_ros GTest::gtest_main)
+  planetary_vo_ros_target(ros_test_conversions)
 endif()
 
 catkin_add_gtest(ros_test_player_core test/ros/test_player_core.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
 if(TARGET ros_test_player_core)
   target_link_libraries(ros_test_player_core planetary_vo_ros GTest::gtest_main)
-  target_include_directories(ros_test_player_core PRIVATE ${PROJECT_SOURCE_DIR}/test ${PROJECT_SOURCE_DIR}/test/ros)
+  planetary_vo_ros_target(ros_test_player_core)
+  target_include_directories(ros_test_player_core PRIVATE ${PROJECT_SOURCE_DIR}/test)
   target_compile_definitions(ros_test_player_core PRIVATE
     PLANETARY_VO_DATA_DIR="${PLANETARY_VO_DATA_DIR}"
     PLANETARY_VO_TEST_OUTPUT_DIR="${PLANETARY_VO_ROS_TEST_OUTPUT}")
+endif()
+
+# Test data made at build time (target player_test_data, built with `tests`): the synthetic planetary_vo-format
+# dataset, and bags written by `player --dataset DIR --bag FILE` from it and from the KITTI clip.
+set(PLAYER_SYNTHETIC_DATASET ${PLANETARY_VO_ROS_TEST_OUTPUT}/player_synthetic)
+set(PLAYER_KITTI_BAG ${PLANETARY_VO_ROS_TEST_OUTPUT}/player_kitti_clip_turn.bag)
+set(PLAYER_SYNTHETIC_BAG ${PLANETARY_VO_ROS_TEST_OUTPUT}/player_synthetic.bag)
+add_executable(make_player_test_dataset EXCLUDE_FROM_ALL test/ros/make_player_test_dataset.cpp)
+target_link_libraries(make_player_test_dataset planetary_vo_dataset)
+add_custom_command(
+  OUTPUT ${PLAYER_SYNTHETIC_DATASET}/times.txt
+  COMMAND ${CMAKE_COMMAND} -E remove_directory ${PLAYER_SYNTHETIC_DATASET}
+  COMMAND make_player_test_dataset ${PLAYER_SYNTHETIC_DATASET}
+  DEPENDS make_player_test_dataset
+  COMMENT "Writing the synthetic player test dataset")
+add_custom_command(
+  OUTPUT ${PLAYER_KITTI_BAG}
+  COMMAND player --dataset ${PLANETARY_VO_DATA_DIR}/kitti_clip_turn --bag ${PLAYER_KITTI_BAG}
+  DEPENDS player ${PLANETARY_VO_DATA_DIR}/kitti_clip_turn/poses.txt
+  COMMENT "Writing the KITTI clip bag with player --bag")
+add_custom_command(
+  OUTPUT ${PLAYER_SYNTHETIC_BAG}
+  COMMAND player --dataset ${PLAYER_SYNTHETIC_DATASET} --bag ${PLAYER_SYNTHETIC_BAG}
+  DEPENDS player ${PLAYER_SYNTHETIC_DATASET}/times.txt
+  COMMENT "Writing the synthetic dataset bag with player --bag")
+add_custom_target(player_test_data DEPENDS ${PLAYER_SYNTHETIC_DATASET}/times.txt ${PLAYER_KITTI_BAG}
+                                           ${PLAYER_SYNTHETIC_BAG})
+add_dependencies(tests player_test_data player)
+
+# The gtest node of the rostests. Built by hand rather than with add_rostest_gtest, which cannot pass ARGS.
+if(TARGET GTest::gtest)
+  add_executable(test_player_node EXCLUDE_FROM_ALL test/ros/test_player_node.cpp)
+  target_link_libraries(test_player_node planetary_vo_ros GTest::gtest)
+  planetary_vo_ros_target(test_player_node)
+  add_dependencies(tests test_player_node)
+  add_rostest(test/ros/player_live.test ARGS data_dir:=${PLANETARY_VO_DATA_DIR}
+              DEPENDENCIES test_player_node player)
+  add_rostest(test/ros/player_live.test ARGS data_dir:=${PLANETARY_VO_DATA_DIR}
+              dataset:=${PLAYER_SYNTHETIC_DATASET} rate:=1 expect_fx:=0
+              DEPENDENCIES test_player_node player player_test_data)
+  add_rostest(test/ros/player_bag.test ARGS bag:=${PLAYER_KITTI_BAG}
+              dataset:=${PLANETARY_VO_DATA_DIR}/kitti_clip_turn expect_fx:=718.856
+              DEPENDENCIES test_player_node player_test_data)
+  add_rostest(test/ros/player_bag.test ARGS bag:=${PLAYER_SYNTHETIC_BAG} dataset:=${PLAYER_SYNTHETIC_DATASET}
+              DEPENDENCIES test_player_node player_test_data)
+else()
+  message(WARNING "GTest not found: the player rostests are not built (install libgtest-dev)")
 endif()
