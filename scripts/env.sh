@@ -10,7 +10,7 @@ export PATH="/usr/bin:$PATH"
 export ROS_HOME="$PLANETARY_VO_BUILD/ros_home"
 export ROS_LOG_DIR="$ROS_HOME/log"
 export ROS_HOSTNAME=localhost
-export ROS_LANG_DISABLE=genlisp:geneus:gennodejs
+export ROS_LANG_DISABLE=genlisp
 
 # Configures and builds everything (and the test executables when $1 == tests).
 planetary_vo_build() {
