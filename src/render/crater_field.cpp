@@ -54,8 +54,10 @@ int CraterField::cellCraters(int k, int64_t i, int64_t j, Crater* out) const {
     cr.center = {(i + rng.uniform()) * cell, (j + rng.uniform()) * cell};
     // D^-3 density on [D_k, 2 D_k) by inversion: the cumulative D^-2 law holds inside the class too.
     cr.diameter_m = dk / std::sqrt(1.0 - 0.75 * rng.uniform());
+    // Large craters are older on average (a fresh crater of that size is rare): fewer deep, sharp big bowls.
     const double uf = rng.uniform();
-    cr.freshness = params_.fresh_exponent == 3.0 ? uf * uf * uf : std::pow(uf, params_.fresh_exponent);
+    const double expo = params_.fresh_exponent * std::max(1.0, std::sqrt(dk / 20.0));
+    cr.freshness = std::pow(uf, expo);
     const double f = cr.freshness;
     cr.depth_m = cr.diameter_m * (0.2 * f + 0.04 * (1.0 - f));         // d/D: 0.2 fresh, 0.04 degraded
     cr.rim_height_m = cr.diameter_m * (0.04 * f + 0.004 * (1.0 - f));  // rim uplift erodes away with age
