@@ -1,0 +1,89 @@
+#pragma once
+/// @file klt_tracker.h
+/// Stage 2 of the chain: pyramidal Lucas-Kanade tracking of grid features from frame to frame (thesis 4.4.3,
+/// Table 4.7), with a forward-backward consistency check and the Phase-1 replenishment of thesis 5.1
+/// (surviving tracks are kept and new features are detected only where the grid has become empty).
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/feature_tracks.h"
+#include "planetary_vo/vo/grid_detector.h"
+
+namespace planetary_vo {
+
+/// What one KltTracker::track() call did.
+struct TrackingResult {
+  int64_t frame_index = -1;  ///< 0 for the first image given to the tracker
+  int num_tracked = 0;       ///< tracks carried over from the previous frame (= correspondences.size())
+  int num_lost_lk = 0;       ///< LK did not converge or the window was too flat (min eigenvalue)
+  int num_lost_border = 0;   ///< tracked to within border_px of the image edge or beyond
+  int num_lost_fb = 0;       ///< forward-backward round trip off by more than fb_max_error_px
+  int num_new = 0;           ///< features added this frame (replenishment, first frame or restart)
+  bool restarted = false;    ///< restart_below_min: all tracks were dropped and detection started afresh
+  FrameCorrespondences correspondences;  ///< previous -> current pixels of the tracks carried over
+  double pyramid_ms = 0.0;               ///< building the LK pyramid of the new image
+  double lk_ms = 0.0;                    ///< forward and backward LK
+  double detect_ms = 0.0;                ///< replenishment / restart detection
+  double total_ms = 0.0;
+};
+
+/// @brief Frame-to-frame KLT tracker with persistent track ids and grid replenishment.
+///
+/// Each image's LK pyramid is built once (cv::buildOpticalFlowPyramid) and reused as the previous pyramid for
+/// the next frame, for the forward and for the backward pass. The image is copied into the pyramid, so the
+/// caller may reuse its buffer after track() returns.
+///
+/// Threading: not thread-safe; one instance per image stream.
+class KltTracker {
+ public:
+  /// @param config LK, forward-backward and replenishment settings.
+  /// @param detector_config the grid detector used for the first frame and for replenishment.
+  KltTracker(const TrackerConfig& config, const DetectorConfig& detector_config);
+
+  /// @brief Tracks the current features into `gray` and replenishes empty grid cells.
+  /// @param gray 8-bit single-channel image, the same size for every call until reset().
+  /// @throws std::invalid_argument on an empty, non-8UC1 image or a size change.
+  TrackingResult track(const cv::Mat& gray);
+
+  /// The live tracks after the last track() call, in the current frame.
+  const std::vector<FeatureTrack>& tracks() const { return tracks_; }
+
+  /// Drops tracks, e.g. the RANSAC outliers of the geometry stage (thesis 4.4.1: outliers are deleted). Their
+  /// cells become eligible for replenishment on the next frame. Returns how many were found and removed.
+  int removeTracks(const std::vector<uint64_t>& ids);
+
+  /// Forgets all tracks and the previous image; the next track() starts like the first. Ids keep increasing.
+  void reset();
+
+  const TrackerConfig& config() const { return config_; }
+  const GridDetector& detector() const { return detector_; }
+
+ private:
+  void buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const;
+  /// Forward LK prev -> curr, then backward; fills status_ (true = keep) and curr_px_, counting the losses.
+  void trackPoints(const std::vector<cv::Point2f>& prev_px, TrackingResult* result);
+  void addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t frame);
+
+  TrackerConfig config_;
+  GridDetector detector_;
+  cv::TermCriteria criteria_;
+  cv::Size win_size_;
+
+  std::vector<FeatureTrack> tracks_;
+  uint64_t next_id_ = 0;
+  int64_t frame_index_ = -1;
+  bool has_previous_ = false;
+  cv::Size image_size_;
+
+  // Reused buffers: the pyramids swap roles every frame, so their levels are allocated once.
+  std::vector<cv::Mat> prev_pyramid_, curr_pyramid_;
+  std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_;
+  std::vector<uchar> lk_status_, back_status_, keep_;
+  std::vector<float> lk_error_;
+};
+
+}  // namespace planetary_vo

@@ -1,0 +1,184 @@
+/// @file klt_tracker.cpp
+/// Pyramidal LK with forward-backward check, persistent ids and grid replenishment.
+
+#include "planetary_vo/vo/klt_tracker.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/video/tracking.hpp>
+
+namespace planetary_vo {
+namespace {
+
+double msSince(int64 start_ticks) {
+  return 1e3 * static_cast<double>(cv::getTickCount() - start_ticks) / cv::getTickFrequency();
+}
+
+}  // namespace
+
+KltTracker::KltTracker(const TrackerConfig& config, const DetectorConfig& detector_config)
+    : config_(config),
+      detector_(detector_config),
+      criteria_(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, config.max_iterations, config.epsilon_px),
+      win_size_(config.window_size_px, config.window_size_px) {}
+
+void KltTracker::reset() {
+  tracks_.clear();
+  has_previous_ = false;
+}
+
+int KltTracker::removeTracks(const std::vector<uint64_t>& ids) {
+  if (ids.empty()) return 0;
+  std::vector<uint64_t> sorted(ids);
+  std::sort(sorted.begin(), sorted.end());
+  const size_t before = tracks_.size();
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
+                               [&](const FeatureTrack& t) {
+                                 return std::binary_search(sorted.begin(), sorted.end(), t.id);
+                               }),
+                tracks_.end());
+  return static_cast<int>(before - tracks_.size());
+}
+
+void KltTracker::buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const {
+  // withDerivatives: LK then reuses the Scharr derivatives instead of recomputing them in both passes.
+  // tryReuseInputImage = false: the pyramid owns a copy, so the caller may overwrite its image buffer.
+  cv::buildOpticalFlowPyramid(gray, *pyramid, win_size_, config_.pyramid_levels, true, cv::BORDER_REFLECT_101,
+                              cv::BORDER_CONSTANT, false);
+}
+
+void KltTracker::trackPoints(const std::vector<cv::Point2f>& prev_px, TrackingResult* result) {
+  const size_t n = prev_px.size();
+  keep_.assign(n, 0);
+  if (n == 0) return;
+  cv::calcOpticalFlowPyrLK(prev_pyramid_, curr_pyramid_, prev_px, curr_px_, lk_status_, lk_error_, win_size_,
+                           config_.pyramid_levels, criteria_, 0, config_.min_eigen_threshold);
+  const bool fb_check = config_.fb_max_error_px > 0.0;
+  if (fb_check) {
+    // Backward pass from the forward result, started where the forward pass ended (not at the original
+    // position: started there, LK on an unmatched window barely moves and "comes back" by construction). A
+    // point that LK dragged onto a different structure (occlusion, shadow change, repeated texture) does not
+    // return.
+    cv::calcOpticalFlowPyrLK(curr_pyramid_, prev_pyramid_, curr_px_, back_px_, back_status_, lk_error_,
+                             win_size_, config_.pyramid_levels, criteria_, 0, config_.min_eigen_threshold);
+  }
+  const float border = static_cast<float>(config_.border_px);
+  const float x_max = static_cast<float>(image_size_.width - 1) - border;
+  const float y_max = static_cast<float>(image_size_.height - 1) - border;
+  const double fb_max2 = config_.fb_max_error_px * config_.fb_max_error_px;
+  for (size_t i = 0; i < n; ++i) {
+    const cv::Point2f& p = curr_px_[i];
+    if (!lk_status_[i]) {
+      ++result->num_lost_lk;
+    } else if (!(p.x >= border && p.y >= border && p.x <= x_max && p.y <= y_max)) {
+      ++result->num_lost_border;
+    } else if (fb_check) {
+      const double dx = back_px_[i].x - prev_px[i].x, dy = back_px_[i].y - prev_px[i].y;
+      if (!back_status_[i] || dx * dx + dy * dy > fb_max2)
+        ++result->num_lost_fb;
+      else
+        keep_[i] = 1;
+    } else {
+      keep_[i] = 1;
+    }
+  }
+}
+
+void KltTracker::addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t frame) {
+  for (const cv::KeyPoint& kp : keypoints) {
+    FeatureTrack t;
+    t.id = next_id_++;
+    t.px = kp.pt;
+    t.prev_px = kp.pt;
+    t.first_frame = frame;
+    t.age_frames = 0;
+    tracks_.push_back(t);
+  }
+}
+
+TrackingResult KltTracker::track(const cv::Mat& gray) {
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw std::invalid_argument("KltTracker::track: expected a non-empty 8-bit single-channel image");
+  if (has_previous_ && gray.size() != image_size_)
+    throw std::invalid_argument("KltTracker::track: image size changed from " +
+                                std::to_string(image_size_.width) + "x" + std::to_string(image_size_.height) +
+                                " to " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                                "; call reset() first");
+  const int64 t_start = cv::getTickCount();
+  TrackingResult result;
+  result.frame_index = ++frame_index_;
+  image_size_ = gray.size();
+
+  buildPyramid(gray, &curr_pyramid_);
+  result.pyramid_ms = msSince(t_start);
+
+  if (has_previous_ && !tracks_.empty()) {
+    const int64 t_lk = cv::getTickCount();
+    prev_px_.clear();
+    for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
+    trackPoints(prev_px_, &result);
+    size_t kept = 0;
+    for (size_t i = 0; i < tracks_.size(); ++i) {
+      if (!keep_[i]) continue;
+      FeatureTrack& t = tracks_[kept++];
+      t = tracks_[i];
+      t.prev_px = t.px;
+      t.px = curr_px_[i];
+      ++t.age_frames;
+      result.correspondences.push_back(t.id, t.prev_px, t.px);
+    }
+    tracks_.resize(kept);
+    result.lk_ms = msSince(t_lk);
+  }
+
+  const int64 t_detect = cv::getTickCount();
+  if (config_.replenish_strategy == ReplenishStrategy::kRestartBelowMin) {
+    if (has_previous_ && static_cast<int>(tracks_.size()) < config_.min_tracked_features) {
+      // Thesis 4.4.1: drop everything, detect on the previous image and track the fresh features into this
+      // one, so that this frame pair still yields correspondences.
+      result.restarted = true;
+      tracks_.clear();
+      result.correspondences.clear();
+      const std::vector<cv::KeyPoint> fresh = detector_.detect(prev_pyramid_[0]);
+      prev_px_.clear();
+      for (const cv::KeyPoint& kp : fresh) prev_px_.push_back(kp.pt);
+      TrackingResult restart_losses;  // losses of the fresh features are not losses of tracks
+      trackPoints(prev_px_, &restart_losses);
+      for (size_t i = 0; i < fresh.size(); ++i) {
+        if (!keep_[i]) continue;
+        FeatureTrack t;
+        t.id = next_id_++;
+        t.prev_px = prev_px_[i];
+        t.px = curr_px_[i];
+        t.first_frame = frame_index_ - 1;
+        t.age_frames = 1;
+        tracks_.push_back(t);
+        result.correspondences.push_back(t.id, t.prev_px, t.px);
+      }
+      result.num_new = static_cast<int>(tracks_.size());
+    } else if (!has_previous_) {
+      const std::vector<cv::KeyPoint> fresh = detector_.detect(gray);
+      addTracks(fresh, frame_index_);
+      result.num_new = static_cast<int>(fresh.size());
+    }
+  } else {
+    // Phase 1: keep the survivors; cells left with too few of them get new features.
+    existing_px_.clear();
+    for (const FeatureTrack& t : tracks_) existing_px_.push_back(t.px);
+    const std::vector<cv::KeyPoint> fresh =
+        detector_.detect(gray, existing_px_, config_.replenish_cell_min_features);
+    addTracks(fresh, frame_index_);
+    result.num_new = static_cast<int>(fresh.size());
+  }
+  result.detect_ms = msSince(t_detect);
+  result.num_tracked = static_cast<int>(result.correspondences.size());
+
+  std::swap(prev_pyramid_, curr_pyramid_);
+  has_previous_ = true;
+  result.total_ms = msSince(t_start);
+  return result;
+}
+
+}  // namespace planetary_vo
