@@ -1,0 +1,92 @@
+#pragma once
+/// @file frame_result.h
+/// What the pipeline says about every frame: one plain value type that the offline runner (vo_run), the ROS
+/// nodelet (pose, odometry, status, diagnostics) and the tests all read, so live and offline runs share one
+/// path.
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "planetary_vo/geometry/pose.h"
+
+namespace planetary_vo {
+
+/// Where the chain stands. Ordered from best to worst only loosely: kRecovered is a good pose on a
+/// re-initialised map (scale bridged), kLost a held pose.
+enum class TrackingState : uint8_t {
+  kInitialising =
+      0,           ///< no map (or no reference frame) yet; T_world_cam is the reference pose, not an estimate
+  kTracking = 1,   ///< pose estimated from the map (map mode) or from an accepted two-view model (unit steps)
+  kLost = 2,       ///< this frame gave no pose; T_world_cam holds the last good pose
+  kRecovered = 3,  ///< first pose after a re-initialisation; the new map was attached to the old trajectory
+};
+/// "initialising", "tracking", "lost", "recovered".
+const char* toString(TrackingState state);
+
+/// Which estimator produced this frame's pose.
+enum class MotionEstimate : uint8_t {
+  kNone = 0,         ///< no pose estimated this frame
+  kFundamental = 1,  ///< two-view: eight-point F, then E = K^T F K
+  kEssential = 2,    ///< two-view: five-point E
+  kHomography = 3,   ///< two-view: plane-induced homography
+  kPnp = 4,          ///< frame-to-map: EPnP in RANSAC + refinement
+};
+/// "none", "fundamental", "essential", "homography", "pnp".
+const char* toString(MotionEstimate motion);
+
+/// Wall-clock time spent per stage on this frame, in milliseconds.
+struct StageTimesMs {
+  double tracking_ms = 0.0;  ///< KLT tracking + replenishment detection + undistortion
+  double motion_ms =
+      0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
+  double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
+  double ba_ms = 0.0;       ///< synchronous bundle adjustment, or applying an asynchronous result
+  double total_ms = 0.0;    ///< the whole process() call
+};
+
+/// Per-frame output of Pipeline::process().
+struct FrameResult {
+  int64_t frame_index = -1;  ///< 0-based index of the image given to process()
+  double timestamp_s = 0.0;
+  /// False when the frame was skipped by keyframe.process_every_n_frames; then nothing else below changed.
+  bool processed = false;
+  /// Camera optical frame in the VO world frame (the first keyframe's camera at the origin). Never NaN: while
+  /// lost it holds the last good pose.
+  Pose T_world_cam = Pose::Identity();
+  TrackingState state = TrackingState::kInitialising;
+  MotionEstimate motion = MotionEstimate::kNone;
+  bool is_keyframe = false;
+
+  int num_new_features = 0;  ///< features detected this frame (replenishment or restart)
+  int num_tracked = 0;       ///< tracks carried over from the previous processed frame
+  int num_inliers = 0;       ///< inliers of the model or PnP that produced the pose
+  int num_map_points = 0;    ///< points in the (windowed) map after this frame
+  int num_keyframes = 0;     ///< keyframes in the window after this frame
+
+  /// How far the current scale can be trusted to equal the scale of the first map, in [0, 1]: 1 for a map
+  /// that has grown continuously from its initialisation, lowered by each re-initialisation (more when the
+  /// bridge had to assume constant speed than when shared points fixed it); 0 without a map (unit-step
+  /// chain).
+  double scale_confidence = 0.0;
+
+  StageTimesMs times;
+  /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.
+  std::string message;
+
+  /// True when T_world_cam is an estimate of this frame (tracking or recovered), not a reference or held
+  /// pose.
+  bool hasPoseEstimate() const {
+    return processed && (state == TrackingState::kTracking || state == TrackingState::kRecovered);
+  }
+};
+
+/// A map point as the ROS layer publishes it (sensor_msgs/PointCloud2: x y z + observation count).
+struct MapPointView {
+  uint64_t id = 0;
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  int num_observations = 0;  ///< keyframes in the window that observe it
+};
+
+}  // namespace planetary_vo

@@ -1,0 +1,82 @@
+#pragma once
+/// @file initializer.h
+/// Stage 3: two-view motion between a reference frame and the current one (thesis 4.4.4: F, E or H,
+/// selectable, or `auto` = H vs E by ORB-SLAM's R_H), with the quality checks of the geometry stage deciding
+/// whether the motion is trusted; and the map initialisation that triangulates the inliers at a unit
+/// baseline.
+///
+/// The homography's two-fold ambiguity (peer-results.md: ORB-SLAM2 never initialised on planar descent
+/// imagery) is resolved in this order: in-front counts when they differ clearly, then the expected plane
+/// normal (for a down-looking lander camera the ground lies along the camera's +z), and, when neither
+/// decides, the essential matrix is tried instead. A pose that no check can vouch for is rejected, never
+/// guessed.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/geometry/two_view_types.h"
+#include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/frame_result.h"
+
+namespace planetary_vo {
+
+/// Outcome of one two-view motion estimate.
+struct RelativeMotion {
+  bool valid = false;
+  std::string reason;  ///< why it was rejected ("" when valid)
+  MotionEstimate model = MotionEstimate::kNone;
+  Pose T_c2_c1_unit = Pose::Identity();  ///< p_c2 = T * p_c1, |t| = 1
+  std::vector<uint8_t> inlier_mask;      ///< per input correspondence
+  int num_inliers = 0;
+  double median_parallax_deg = 0.0;
+  bool resolved_by_prior = false;  ///< homography: the plane-normal prior chose between look-alike solutions
+};
+
+/// A triangulated two-view map: camera 1 at the origin, camera 2 one unit away.
+struct Initialization {
+  RelativeMotion motion;
+  bool valid = false;
+  std::string reason;
+  std::vector<uint64_t> track_ids;         ///< of the triangulated points
+  std::vector<Eigen::Vector3d> points_c1;  ///< in camera 1, unit baseline
+  std::vector<Eigen::Vector2d> px1, px2;   ///< their ideal pixels in both views
+  double median_depth = 0.0;               ///< of points_c1, in baselines
+};
+
+/// Two-view motion and map initialisation. Stateless apart from its settings; cheap to copy.
+class Initializer {
+ public:
+  /// @param motion model, RANSAC and acceptance thresholds; @param map triangulation thresholds of new
+  /// points.
+  /// @param prior_plane_normal_c1 expected unit normal of the ground in the camera, pointing away from the
+  ///        camera (+z for a nadir camera); zero = no prior.
+  Initializer(const MotionConfig& motion, const MapConfig& map,
+              const Eigen::Vector3d& prior_plane_normal_c1 = Eigen::Vector3d::UnitZ());
+
+  /// @brief Relative motion of camera 2 w.r.t. camera 1 from ideal pixel correspondences (equal sizes).
+  /// @param K intrinsics of both views.
+  RelativeMotion estimateMotion(const std::vector<cv::Point2d>& px1, const std::vector<cv::Point2d>& px2,
+                                const Eigen::Matrix3d& K) const;
+
+  /// @brief estimateMotion(), then triangulation of its inliers; valid when the motion is valid and at least
+  ///        motion.min_inliers points pass the triangulation checks (depth, reprojection, parallax).
+  Initialization initialize(const std::vector<uint64_t>& track_ids, const std::vector<cv::Point2d>& px1,
+                            const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K) const;
+
+  void setPriorPlaneNormal(const Eigen::Vector3d& normal_c1) { prior_normal_c1_ = normal_c1; }
+  const MotionConfig& motionConfig() const { return motion_; }
+
+ private:
+  TwoViewOptions twoViewOptions() const;
+
+  MotionConfig motion_;
+  MapConfig map_;
+  Eigen::Vector3d prior_normal_c1_;
+};
+
+}  // namespace planetary_vo

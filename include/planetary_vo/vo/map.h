@@ -1,0 +1,112 @@
+#pragma once
+/// @file map.h
+/// Stage 5: the windowed sparse map. Keyframes (pose + the ideal pixels of every live KLT track at that
+/// moment) and map points (world position + their keyframe observations), linked to the KLT tracks by track
+/// id so that a frame can be matched to the map without descriptors: a live track that carries a map point is
+/// a 3D-2D correspondence.
+///
+/// Memory stays flat over a sequence: only the newest `window` keyframes are kept, and a point disappears
+/// once no kept keyframe observes it and its track has died.
+
+#include <cstdint>
+#include <deque>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/vo/bundle_adjuster.h"
+#include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/frame_result.h"
+
+namespace planetary_vo {
+
+struct Keyframe {
+  uint64_t id = 0;
+  double timestamp_s = 0.0;
+  Pose T_world_cam = Pose::Identity();
+  /// Ideal (undistorted) pixel of every track alive when the keyframe was taken, by track id. New points are
+  /// triangulated from these, also for tracks that did not yet carry a point.
+  std::unordered_map<uint64_t, Eigen::Vector2d> px_by_track;
+};
+
+struct MapObservation {
+  uint64_t keyframe_id = 0;
+  Eigen::Vector2d px = Eigen::Vector2d::Zero();  ///< ideal pixel
+};
+
+struct MapPoint {
+  uint64_t id = 0;
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  std::vector<MapObservation> observations;  ///< kept keyframes only, oldest first
+  /// The KLT track that follows the point in new frames; valid while has_track (false once it died or was
+  /// detached).
+  uint64_t track_id = 0;
+  bool has_track = false;
+  int times_visible = 0;  ///< frames in which its track was alive and it was given to PnP
+  int times_found = 0;    ///< ... and it was a PnP inlier
+};
+
+/// The windowed map. Not thread-safe: owned and used by the tracking thread; bundle adjustment works on a
+/// copy (makeBaProblem / applyBaResult).
+class Map {
+ public:
+  void clear();
+
+  /// Appends a keyframe (newest) holding the given ideal pixels of the live tracks; returns its id.
+  uint64_t addKeyframe(double timestamp_s, const Pose& T_world_cam, const std::vector<uint64_t>& track_ids,
+                       const std::vector<Eigen::Vector2d>& px);
+  /// Adds a point followed by `track_id` (replacing any point that track carried) with its observations.
+  uint64_t addPoint(uint64_t track_id, const Eigen::Vector3d& p_world,
+                    std::vector<MapObservation> observations);
+  /// Records that keyframe `keyframe_id` sees point `point_id` at `px` (ignored for unknown ids or
+  /// duplicates).
+  void addObservation(uint64_t point_id, uint64_t keyframe_id, const Eigen::Vector2d& px);
+  void removePoint(uint64_t point_id);
+
+  /// The point carried by a live track, or nullptr.
+  MapPoint* pointForTrack(uint64_t track_id);
+  const MapPoint* pointForTrack(uint64_t track_id) const;
+  MapPoint* point(uint64_t point_id);
+  const Keyframe* keyframe(uint64_t keyframe_id) const;
+  Keyframe* keyframe(uint64_t keyframe_id);
+
+  /// The track of a point stops following it (tracking outlier, or the track died): the point stays for
+  /// bundle adjustment while keyframes observe it but is never matched to a frame again.
+  void detachTrack(uint64_t track_id);
+  /// Detaches every track that is not in `live_track_ids` (sorted ascending).
+  void retainTracks(const std::vector<uint64_t>& live_track_ids_sorted);
+
+  /// Drops the oldest keyframes beyond `window_keyframes` and the points nothing holds any more. Returns the
+  /// number of points removed.
+  int dropKeyframesOutsideWindow(int window_keyframes);
+  /// Removes points that PnP keeps rejecting (found / visible < cull_min_found_ratio after 5 visible frames)
+  /// and detached points with fewer than min_observations keyframe observations. Returns how many.
+  int cull(const MapConfig& config);
+
+  /// Copy of the newest `window_keyframes` keyframes and the points with >= 2 observations in them. The
+  /// `num_fixed_oldest` oldest window keyframes are held fixed (gauge and scale); keyframes outside the
+  /// window that observe the points enter as fixed too.
+  BaProblem makeBaProblem(int window_keyframes, int num_fixed_oldest, double fx, double fy, double cx,
+                          double cy) const;
+  /// Writes optimised poses and points back (ids that no longer exist are skipped) and removes the outlier
+  /// observations; points left with fewer than 2 observations are removed. Returns the points removed.
+  int applyBaResult(const BaProblem& problem, const std::vector<BaObservation>& outliers);
+
+  const std::deque<Keyframe>& keyframes() const { return keyframes_; }
+  const std::unordered_map<uint64_t, MapPoint>& points() const { return points_; }
+  size_t numPoints() const { return points_.size(); }
+  size_t numKeyframes() const { return keyframes_.size(); }
+  /// World positions and observation counts of all points (cleared first).
+  void pointViews(std::vector<MapPointView>* out) const;
+
+ private:
+  std::deque<Keyframe> keyframes_;  // oldest first
+  std::unordered_map<uint64_t, MapPoint> points_;
+  std::unordered_map<uint64_t, uint64_t> point_by_track_;
+  uint64_t next_keyframe_id_ = 0;
+  uint64_t next_point_id_ = 0;
+};
+
+}  // namespace planetary_vo

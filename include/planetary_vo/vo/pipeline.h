@@ -1,0 +1,147 @@
+#pragma once
+/// @file pipeline.h
+/// The visual-odometry chain: the stages composed, one image in, one FrameResult out.
+///
+/// Two compositions, chosen by config.pipeline.trajectory_mode:
+/// - unit_step_concatenation (the thesis chain, 4.4.1): every n-th frame, two-view F / E / H / auto between
+/// the
+///   last accepted frame and the current one; a model that fails its quality checks is rejected (the pose is
+///   held and the next frame is tried against the same reference) instead of being concatenated; accepted
+///   motions are chained with unit-norm translations, T_world_cam_k = T_world_cam_ref * T_ref_k.
+/// - map (default): two-view initialisation once the parallax suffices, a triangulated map at unit baseline,
+///   every frame tracked by PnP against the map points carried by live KLT tracks, keyframes by parallax and
+///   track survival, new points triangulated against the oldest keyframe that saw the track, culling,
+///   windowed bundle adjustment, and recovery: after max_consecutive_failed_frames without a pose, a new
+///   two-view map is attached to the last good pose with a scale bridge (shared points, else the last
+///   keyframe speed, else the scene depth), so the trajectory continues instead of jumping back to the
+///   origin.
+///
+/// Pixels from the tracker are undistorted (PinholeCamera::undistortPixels) before any geometry.
+///
+/// Threading: process(), reset() and setCamera() must be called from one thread. With
+/// bundle_adjustment.asynchronous the bundle adjustment runs in a worker thread owned by the pipeline; its
+/// result is applied at the start of a later process() call. mapPoints() reads the map of the calling thread.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/vo/bundle_adjuster.h"
+#include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/frame_result.h"
+#include "planetary_vo/vo/initializer.h"
+#include "planetary_vo/vo/keyframe_policy.h"
+#include "planetary_vo/vo/klt_tracker.h"
+#include "planetary_vo/vo/map.h"
+#include "planetary_vo/vo/pnp_tracker.h"
+
+namespace planetary_vo {
+
+class Pipeline {
+ public:
+  /// @param config validated configuration (VoConfig::validate() is called; throws ConfigError).
+  /// @param camera intrinsics and distortion of the images given to process(); must be valid.
+  /// @throws std::invalid_argument for an invalid camera.
+  Pipeline(const VoConfig& config, const PinholeCamera& camera);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  /// @brief Processes one image.
+  /// @param timestamp_s image time; only used for the output and the speed of the recovery's scale bridge.
+  /// @param gray 8-bit single-channel image of the camera's size.
+  /// @throws std::invalid_argument for an empty, non-8UC1 or wrongly sized image (the state is unchanged).
+  FrameResult process(double timestamp_s, const cv::Mat& gray);
+
+  /// Forgets tracks, map and trajectory: the next frame starts a new trajectory at the origin.
+  void reset();
+
+  /// Changes the intrinsics (e.g. a new camera_info). If they differ, the tracks and the map are dropped and
+  /// the chain re-initialises from the current pose (state lost, then recovered), without a jump.
+  void setCamera(const PinholeCamera& camera);
+
+  /// Expected ground-plane normal in the camera (pointing away from it) that decides the homography's
+  /// two-fold ambiguity; +z (nadir camera) by default, zero = no prior.
+  void setPriorPlaneNormal(const Eigen::Vector3d& normal_cam);
+
+  /// World positions and observation counts of the current (windowed) map points.
+  void mapPoints(std::vector<MapPointView>* out) const { map_.pointViews(out); }
+  const Map& map() const { return map_; }
+  const PinholeCamera& camera() const { return camera_; }
+  const VoConfig& config() const { return config_; }
+  /// Live tracks of the last processed frame (distorted pixels), e.g. to draw the tracking image.
+  const std::vector<FeatureTrack>& tracks() const { return tracker_.tracks(); }
+
+ private:
+  /// Ideal pixels of a frame's live tracks, sorted by track id, with the pose the frame had.
+  struct FrameSnapshot {
+    bool valid = false;
+    double timestamp_s = 0.0;
+    Pose T_world_cam = Pose::Identity();
+    std::vector<uint64_t> track_ids;
+    std::vector<Eigen::Vector2d> px;
+  };
+
+  void trackFeatures(const cv::Mat& gray, FrameResult* result);
+  void snapshotCurrent(double timestamp_s, const Pose& T_world_cam, FrameSnapshot* out) const;
+  /// Correspondences of `ref` with the current frame by track id into px_ref_ / px_cur_ / match_ids_.
+  void matchToCurrent(const FrameSnapshot& ref);
+
+  void processUnitStep(FrameResult* result);
+  void processMap(FrameResult* result);
+  void tryInitialise(FrameResult* result);
+  double bridgeScale(const Initialization& init, double* confidence_factor) const;
+  void trackAgainstMap(FrameResult* result);
+  void startRecovery();
+  void maybeInsertKeyframe(FrameResult* result);
+  void insertKeyframe(FrameResult* result);
+  int triangulateNewPoints(uint64_t new_keyframe_id);
+  void runBundleAdjustment(FrameResult* result);
+  void applyAsyncBundleAdjustment(FrameResult* result);
+  void holdPose(FrameResult* result, const std::string& why);
+
+  VoConfig config_;
+  PinholeCamera camera_;
+  Eigen::Matrix3d K_;
+  KltTracker tracker_;
+  Initializer initializer_;
+  PnpTracker pnp_tracker_;
+  KeyframePolicy keyframe_policy_;
+  Map map_;
+  std::unique_ptr<AsyncBundleAdjuster> async_ba_;
+
+  // Chain state.
+  int64_t frame_index_ = -1;
+  double timestamp_s_ = 0.0;
+  TrackingState state_ = TrackingState::kInitialising;
+  Pose T_world_cam_ = Pose::Identity();  // last output pose
+  bool map_initialised_ = false;
+  bool recovering_ = false;  // a map (or chain) existed and was lost: the next success is kRecovered
+  int failed_frames_ = 0;
+  double scale_confidence_ = 0.0;
+  int frames_since_keyframe_ = 0;
+  FrameSnapshot reference_;  // initialisation / unit-step reference frame
+  FrameSnapshot last_good_;  // last frame with a pose estimate (map mode), the anchor of a recovery
+
+  // Per-frame buffers, reused so that steady-state processing allocates little.
+  std::vector<uint64_t> track_ids_;  // live tracks of the current frame, ascending
+  std::vector<Eigen::Vector2d> px_;  // their ideal pixels
+  std::vector<cv::Point2f> distorted_px_;
+  std::vector<size_t> order_;
+  std::vector<uint64_t> match_ids_;
+  std::vector<cv::Point2d> px_ref_, px_cur_;
+  std::vector<Eigen::Vector3d> assoc_p_world_;
+  std::vector<Eigen::Vector2d> assoc_px_;
+  std::vector<uint64_t> assoc_track_ids_;
+  std::vector<uint64_t> assoc_point_ids_;
+  std::vector<uint8_t> assoc_inlier_;
+  std::vector<Eigen::Vector3d> bearings_kf_, bearings_cur_;
+  std::vector<double> scratch_;
+  std::vector<uint64_t> remove_ids_;
+};
+
+}  // namespace planetary_vo

@@ -1,0 +1,48 @@
+#pragma once
+/// @file pnp_tracker.h
+/// Stage 5: the pose of a frame from its live tracks that carry map points (3D-2D correspondences by track
+/// id): EPnP in RANSAC with Levenberg-Marquardt on the inliers (geometry/pnp_solver.h), then a motion-only
+/// robust refinement over all correspondences (Ceres, bundle_adjuster.h refinePose) whose final reprojection
+/// errors decide the inliers.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/vo/config.h"
+
+namespace planetary_vo {
+
+struct PnpTrackResult {
+  bool valid = false;
+  std::string reason;  ///< why tracking failed ("" when valid)
+  Pose T_world_cam = Pose::Identity();
+  std::vector<uint8_t> inlier_mask;  ///< per correspondence, after the refinement
+  int num_points = 0;
+  int num_inliers = 0;
+  double reprojection_rms_px = 0.0;  ///< over the inliers
+};
+
+/// Frame-to-map tracker. Not thread-safe (reuses buffers); one per pipeline.
+class PnpTracker {
+ public:
+  /// @param config RANSAC, acceptance and refinement switch.
+  /// @param refinement robust loss and iteration cap of the motion-only refinement (bundle adjustment
+  /// section).
+  PnpTracker(const PnpConfig& config, const BundleAdjustmentConfig& refinement);
+
+  /// @param p_world map points; @param px their ideal pixels in this frame; @param K intrinsics.
+  PnpTrackResult track(const std::vector<Eigen::Vector3d>& p_world, const std::vector<Eigen::Vector2d>& px,
+                       const Eigen::Matrix3d& K);
+
+ private:
+  PnpConfig config_;
+  BundleAdjustmentConfig refinement_;
+  std::vector<cv::Point2d> px_cv_;
+};
+
+}  // namespace planetary_vo

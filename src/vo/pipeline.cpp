@@ -1,0 +1,584 @@
+#include "planetary_vo/vo/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "planetary_vo/geometry/triangulation.h"
+
+namespace planetary_vo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double median(std::vector<double>* values) {
+  if (values->empty()) return 0.0;
+  const size_t mid = values->size() / 2;
+  std::nth_element(values->begin(), values->begin() + static_cast<std::ptrdiff_t>(mid), values->end());
+  return (*values)[mid];
+}
+
+/// Index of `id` in the ascending `ids`, or -1.
+int findSorted(const std::vector<uint64_t>& ids, uint64_t id) {
+  auto it = std::lower_bound(ids.begin(), ids.end(), id);
+  return (it != ids.end() && *it == id) ? static_cast<int>(it - ids.begin()) : -1;
+}
+
+Pose scaledInverse(const Pose& T_c2_c1_unit, double scale) {
+  Pose T_c2_c1 = T_c2_c1_unit;
+  T_c2_c1.translation() *= scale;
+  return T_c2_c1.inverse();
+}
+
+// A recovery whose scale came from points shared with the old map keeps most of the confidence; one that had
+// to assume the last keyframe speed, less; one that only matched the scene depth, least.
+constexpr double kSharedPointsBridgeConfidence = 0.8;
+constexpr double kSpeedBridgeConfidence = 0.5;
+constexpr double kDepthBridgeConfidence = 0.3;
+constexpr int kMinSharedPointsForBridge = 5;
+// The two oldest keyframes of the BA window stay fixed: the first fixes the gauge, the second the scale.
+constexpr int kNumFixedBaKeyframes = 2;
+
+}  // namespace
+
+Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
+    : config_(config),
+      camera_(camera),
+      tracker_(config.tracker, config.detector),
+      initializer_(config.motion, config.map),
+      pnp_tracker_(config.pnp, config.bundle_adjustment),
+      keyframe_policy_(config.keyframe) {
+  config_.validate();
+  std::string why;
+  if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
+  K_ = camera_.K();
+  if (config_.bundle_adjustment.enabled && config_.bundle_adjustment.asynchronous)
+    async_ba_ = std::make_unique<AsyncBundleAdjuster>(config_.bundle_adjustment);
+}
+
+Pipeline::~Pipeline() = default;
+
+void Pipeline::reset() {
+  if (async_ba_) {
+    async_ba_->waitIdle();
+    async_ba_->takeResult();  // belongs to the old map
+  }
+  tracker_.reset();
+  map_.clear();
+  frame_index_ = -1;
+  state_ = TrackingState::kInitialising;
+  T_world_cam_ = Pose::Identity();
+  map_initialised_ = false;
+  recovering_ = false;
+  failed_frames_ = 0;
+  scale_confidence_ = 0.0;
+  frames_since_keyframe_ = 0;
+  reference_.valid = false;
+  last_good_.valid = false;
+}
+
+void Pipeline::setCamera(const PinholeCamera& camera) {
+  if (camera == camera_) return;
+  std::string why;
+  if (!camera.isValid(&why)) throw std::invalid_argument("Pipeline::setCamera: invalid camera: " + why);
+  camera_ = camera;
+  K_ = camera_.K();
+  tracker_.reset();
+  // Pixels of the old intrinsics cannot be matched to the new ones: continue from the current pose as after a
+  // loss, so the trajectory does not jump.
+  const bool had_trajectory = state_ != TrackingState::kInitialising;
+  map_initialised_ = false;
+  recovering_ = had_trajectory;
+  reference_.valid = false;
+  last_good_.valid = false;
+  failed_frames_ = 0;
+}
+
+void Pipeline::setPriorPlaneNormal(const Eigen::Vector3d& normal_cam) {
+  initializer_.setPriorPlaneNormal(normal_cam);
+}
+
+FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
+  const Clock::time_point start = Clock::now();
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw std::invalid_argument("Pipeline::process: expected a non-empty 8-bit single-channel image");
+  if (gray.cols != camera_.width() || gray.rows != camera_.height())
+    throw std::invalid_argument("Pipeline::process: image is " + std::to_string(gray.cols) + "x" +
+                                std::to_string(gray.rows) + " but the camera is " +
+                                std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()));
+  FrameResult result;
+  result.frame_index = ++frame_index_;
+  result.timestamp_s = timestamp_s;
+  result.T_world_cam = T_world_cam_;
+  result.state = state_;
+  result.scale_confidence = scale_confidence_;
+  if (frame_index_ % config_.keyframe.process_every_n_frames != 0) {
+    result.processed = false;
+    result.num_map_points = static_cast<int>(map_.numPoints());
+    result.num_keyframes = static_cast<int>(map_.numKeyframes());
+    return result;
+  }
+  result.processed = true;
+  timestamp_s_ = timestamp_s;
+
+  applyAsyncBundleAdjustment(&result);
+  trackFeatures(gray, &result);
+  if (config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation)
+    processUnitStep(&result);
+  else
+    processMap(&result);
+
+  T_world_cam_ = result.T_world_cam;
+  state_ = result.state;
+  result.scale_confidence = scale_confidence_;
+  result.num_map_points = static_cast<int>(map_.numPoints());
+  result.num_keyframes = static_cast<int>(map_.numKeyframes());
+  result.times.total_ms = msSince(start);
+  return result;
+}
+
+void Pipeline::trackFeatures(const cv::Mat& gray, FrameResult* result) {
+  const Clock::time_point start = Clock::now();
+  const TrackingResult tracking = tracker_.track(gray);
+  result->num_new_features = tracking.num_new;
+  result->num_tracked = tracking.num_tracked;
+
+  const std::vector<FeatureTrack>& tracks = tracker_.tracks();
+  distorted_px_.resize(tracks.size());
+  for (size_t i = 0; i < tracks.size(); ++i) distorted_px_[i] = tracks[i].px;
+  const std::vector<cv::Point2f> ideal =
+      camera_.hasDistortion() ? camera_.undistortPixels(distorted_px_) : std::vector<cv::Point2f>();
+  const std::vector<cv::Point2f>& px = camera_.hasDistortion() ? ideal : distorted_px_;
+
+  // Everything downstream looks tracks up by id, so keep them ascending (the tracker appends new ids, so this
+  // is normally already the case and the sort is skipped).
+  order_.resize(tracks.size());
+  std::iota(order_.begin(), order_.end(), size_t{0});
+  const bool sorted = std::is_sorted(
+      tracks.begin(), tracks.end(), [](const FeatureTrack& a, const FeatureTrack& b) { return a.id < b.id; });
+  if (!sorted)
+    std::sort(order_.begin(), order_.end(),
+              [&tracks](size_t a, size_t b) { return tracks[a].id < tracks[b].id; });
+  track_ids_.resize(tracks.size());
+  px_.resize(tracks.size());
+  for (size_t k = 0; k < order_.size(); ++k) {
+    track_ids_[k] = tracks[order_[k]].id;
+    px_[k] = Eigen::Vector2d(px[order_[k]].x, px[order_[k]].y);
+  }
+  result->times.tracking_ms = msSince(start);
+}
+
+void Pipeline::snapshotCurrent(double timestamp_s, const Pose& T_world_cam, FrameSnapshot* out) const {
+  out->valid = true;
+  out->timestamp_s = timestamp_s;
+  out->T_world_cam = T_world_cam;
+  out->track_ids = track_ids_;
+  out->px = px_;
+}
+
+void Pipeline::matchToCurrent(const FrameSnapshot& ref) {
+  match_ids_.clear();
+  px_ref_.clear();
+  px_cur_.clear();
+  // Both id lists are ascending: a merge walk.
+  size_t i = 0, j = 0;
+  while (i < ref.track_ids.size() && j < track_ids_.size()) {
+    if (ref.track_ids[i] < track_ids_[j]) {
+      ++i;
+    } else if (track_ids_[j] < ref.track_ids[i]) {
+      ++j;
+    } else {
+      match_ids_.push_back(track_ids_[j]);
+      px_ref_.emplace_back(ref.px[i].x(), ref.px[i].y());
+      px_cur_.emplace_back(px_[j].x(), px_[j].y());
+      ++i;
+      ++j;
+    }
+  }
+}
+
+void Pipeline::holdPose(FrameResult* result, const std::string& why) {
+  result->T_world_cam = T_world_cam_;
+  result->motion = MotionEstimate::kNone;
+  result->message = why;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The thesis chain: unit-norm two-view steps.
+
+void Pipeline::processUnitStep(FrameResult* result) {
+  const Clock::time_point start = Clock::now();
+  scale_confidence_ = 0.0;  // every step has its own arbitrary unit length
+  if (!reference_.valid) {
+    snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+    result->state = recovering_ ? TrackingState::kLost : TrackingState::kInitialising;
+    holdPose(result, "reference frame set");
+    result->times.motion_ms = msSince(start);
+    return;
+  }
+  matchToCurrent(reference_);
+  const RelativeMotion motion = initializer_.estimateMotion(px_ref_, px_cur_, K_);
+  result->times.motion_ms = msSince(start);
+  if (!motion.valid) {
+    ++failed_frames_;
+    result->state =
+        state_ == TrackingState::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
+    holdPose(result, "model rejected: " + motion.reason);
+    // The reference is kept so that the next frame can bring the parallax this one lacked; when that does not
+    // help for too long (or the tracks are gone), the motion over the gap is given up and the chain restarts
+    // from the held pose.
+    const bool starved = static_cast<int>(match_ids_.size()) < config_.motion.min_inliers;
+    if (failed_frames_ >= config_.pipeline.max_consecutive_failed_frames || starved) {
+      snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+      recovering_ = recovering_ || state_ != TrackingState::kInitialising;
+      failed_frames_ = 0;
+    }
+    return;
+  }
+  result->T_world_cam = reference_.T_world_cam * motion.T_c2_c1_unit.inverse();
+  result->motion = motion.model;
+  result->num_inliers = motion.num_inliers;
+  result->is_keyframe = true;
+  result->state = recovering_ ? TrackingState::kRecovered : TrackingState::kTracking;
+  recovering_ = false;
+  failed_frames_ = 0;
+  // Thesis 4.4.1: the outliers of the accepted model are deleted from the tracks.
+  remove_ids_.clear();
+  for (size_t i = 0; i < match_ids_.size(); ++i)
+    if (i < motion.inlier_mask.size() && motion.inlier_mask[i] == 0) remove_ids_.push_back(match_ids_[i]);
+  tracker_.removeTracks(remove_ids_);
+  snapshotCurrent(timestamp_s_, result->T_world_cam, &reference_);
+  result->message = motion.resolved_by_prior ? "homography ambiguity resolved by the plane-normal prior" : "";
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Map mode.
+
+void Pipeline::processMap(FrameResult* result) {
+  if (!map_initialised_) {
+    tryInitialise(result);
+    return;
+  }
+  trackAgainstMap(result);
+  if (result->state == TrackingState::kTracking) {
+    maybeInsertKeyframe(result);
+  } else if (failed_frames_ >= config_.pipeline.max_consecutive_failed_frames) {
+    startRecovery();
+    result->message += "; re-initialising from the last good pose";
+  }
+}
+
+void Pipeline::tryInitialise(FrameResult* result) {
+  const Clock::time_point start = Clock::now();
+  const TrackingState waiting = recovering_ ? TrackingState::kLost : TrackingState::kInitialising;
+  result->state = waiting;
+  if (!reference_.valid) {
+    snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+    holdPose(result, "initialisation reference set");
+    return;
+  }
+  matchToCurrent(reference_);
+  if (static_cast<int>(match_ids_.size()) < std::max(8, config_.motion.min_inliers)) {
+    // The reference's tracks are gone: restart from this frame. Its pose is the held one, so a recovery that
+    // gets here continues from the last known pose (less accurate, but no jump).
+    snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+    holdPose(result, "too few tracks left from the initialisation reference; reference moved");
+    return;
+  }
+  // Cheap pre-check before any RANSAC: the raw image motion must at least reach the parallax the two-view
+  // checks demand; rotation can fake it, which the full estimate then rejects.
+  scratch_.clear();
+  for (size_t i = 0; i < px_ref_.size(); ++i)
+    scratch_.push_back(std::hypot(px_ref_[i].x - px_cur_[i].x, px_ref_[i].y - px_cur_[i].y));
+  const double median_flow_deg = std::atan(median(&scratch_) / K_(0, 0)) * 180.0 / M_PI;
+  if (median_flow_deg < config_.motion.min_parallax_deg) {
+    holdPose(result, "waiting for parallax (" + std::to_string(median_flow_deg) + " deg)");
+    result->times.motion_ms = msSince(start);
+    return;
+  }
+
+  const Initialization init = initializer_.initialize(match_ids_, px_ref_, px_cur_, K_);
+  result->times.motion_ms = msSince(start);
+  if (!init.valid) {
+    holdPose(result, "initialisation rejected: " + init.reason);
+    return;
+  }
+  const Clock::time_point mapping_start = Clock::now();
+  double confidence_factor = 1.0;
+  const double scale = recovering_ ? bridgeScale(init, &confidence_factor) : 1.0;
+  scale_confidence_ = recovering_ ? scale_confidence_ * confidence_factor : 1.0;
+
+  const Pose T_world_ref = reference_.T_world_cam;
+  const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
+  map_.clear();
+  const uint64_t kf_ref =
+      map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
+  const uint64_t kf_cur = map_.addKeyframe(timestamp_s_, T_world_cur, track_ids_, px_);
+  for (size_t i = 0; i < init.points_c1.size(); ++i) {
+    map_.addPoint(init.track_ids[i], T_world_ref * (scale * init.points_c1[i]),
+                  {{kf_ref, init.px1[i]}, {kf_cur, init.px2[i]}});
+  }
+  remove_ids_.clear();
+  for (size_t i = 0; i < match_ids_.size(); ++i)
+    if (i < init.motion.inlier_mask.size() && init.motion.inlier_mask[i] == 0)
+      remove_ids_.push_back(match_ids_[i]);
+  tracker_.removeTracks(remove_ids_);
+
+  result->T_world_cam = T_world_cur;
+  result->state = recovering_ ? TrackingState::kRecovered : TrackingState::kTracking;
+  result->motion = init.motion.model;
+  result->num_inliers = init.motion.num_inliers;
+  result->is_keyframe = true;
+  result->message =
+      std::string(recovering_ ? "re-initialised" : "initialised") + " (" + toString(init.motion.model) +
+      ", " + std::to_string(init.points_c1.size()) + " points" +
+      (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") + ")";
+  map_initialised_ = true;
+  recovering_ = false;
+  failed_frames_ = 0;
+  frames_since_keyframe_ = 0;
+  reference_.valid = false;
+  snapshotCurrent(timestamp_s_, T_world_cur, &last_good_);
+  result->times.mapping_ms = msSince(mapping_start);
+}
+
+double Pipeline::bridgeScale(const Initialization& init, double* confidence_factor) const {
+  // 1. Points of the old map that the new one triangulated again: their depths in the reference camera must
+  //    agree, which fixes the scale without assuming anything about the motion.
+  const Pose T_ref_world = reference_.T_world_cam.inverse();
+  std::vector<double> ratios;
+  for (size_t i = 0; i < init.track_ids.size(); ++i) {
+    const MapPoint* old = map_.pointForTrack(init.track_ids[i]);
+    if (old == nullptr) continue;
+    const double old_depth = (T_ref_world * old->p_world).z();
+    if (old_depth > 0.0 && init.points_c1[i].z() > 0.0) ratios.push_back(old_depth / init.points_c1[i].z());
+  }
+  if (static_cast<int>(ratios.size()) >= kMinSharedPointsForBridge) {
+    *confidence_factor = kSharedPointsBridgeConfidence;
+    return median(&ratios);
+  }
+  // 2. The speed between the last two keyframes of the old map, over the new baseline's time span: the
+  //    new baseline (unit length) gets the distance that speed covers.
+  const auto& kfs = map_.keyframes();
+  const double dt_new = timestamp_s_ - reference_.timestamp_s;
+  if (kfs.size() >= 2 && dt_new > 0.0) {
+    const Keyframe& a = kfs[kfs.size() - 2];
+    const Keyframe& b = kfs.back();
+    const double dt_old = b.timestamp_s - a.timestamp_s;
+    const double distance = (b.T_world_cam.translation() - a.T_world_cam.translation()).norm();
+    if (dt_old > 0.0 && distance > 0.0) {
+      *confidence_factor = kSpeedBridgeConfidence;
+      return distance / dt_old * dt_new;
+    }
+  }
+  // 3. The median scene depth of the old map seen from the reference pose (the altitude changes little over a
+  //    short loss).
+  std::vector<double> depths;
+  for (const auto& entry : map_.points()) {
+    const double z = (T_ref_world * entry.second.p_world).z();
+    if (z > 0.0) depths.push_back(z);
+  }
+  if (!depths.empty() && init.median_depth > 0.0) {
+    *confidence_factor = kDepthBridgeConfidence;
+    return median(&depths) / init.median_depth;
+  }
+  *confidence_factor = 0.0;
+  return 1.0;
+}
+
+void Pipeline::trackAgainstMap(FrameResult* result) {
+  const Clock::time_point start = Clock::now();
+  assoc_p_world_.clear();
+  assoc_px_.clear();
+  assoc_track_ids_.clear();
+  assoc_point_ids_.clear();
+  for (size_t i = 0; i < track_ids_.size(); ++i) {
+    const MapPoint* p = map_.pointForTrack(track_ids_[i]);
+    if (p == nullptr) continue;
+    assoc_p_world_.push_back(p->p_world);
+    assoc_px_.push_back(px_[i]);
+    assoc_track_ids_.push_back(track_ids_[i]);
+    assoc_point_ids_.push_back(p->id);
+  }
+  const PnpTrackResult pnp = pnp_tracker_.track(assoc_p_world_, assoc_px_, K_);
+  assoc_inlier_.assign(assoc_point_ids_.size(), 0);
+  if (pnp.valid) assoc_inlier_ = pnp.inlier_mask;
+  for (size_t i = 0; i < assoc_point_ids_.size(); ++i) {
+    MapPoint* p = map_.point(assoc_point_ids_[i]);
+    ++p->times_visible;
+    if (assoc_inlier_[i]) ++p->times_found;
+  }
+  result->times.motion_ms = msSince(start);
+  if (!pnp.valid) {
+    ++failed_frames_;
+    result->state = TrackingState::kLost;
+    holdPose(result, "tracking failed: " + pnp.reason);
+    return;
+  }
+  // A track that disagrees with the map has drifted (or the point is wrong): it stops carrying the point, and
+  // the tracker drops it so that its grid cell gets a fresh feature.
+  remove_ids_.clear();
+  for (size_t i = 0; i < assoc_track_ids_.size(); ++i) {
+    if (assoc_inlier_[i]) continue;
+    map_.detachTrack(assoc_track_ids_[i]);
+    remove_ids_.push_back(assoc_track_ids_[i]);
+  }
+  tracker_.removeTracks(remove_ids_);
+
+  failed_frames_ = 0;
+  result->T_world_cam = pnp.T_world_cam;
+  result->state = TrackingState::kTracking;
+  result->motion = MotionEstimate::kPnp;
+  result->num_inliers = pnp.num_inliers;
+  snapshotCurrent(timestamp_s_, pnp.T_world_cam, &last_good_);
+}
+
+void Pipeline::startRecovery() {
+  map_initialised_ = false;
+  recovering_ = true;
+  failed_frames_ = 0;
+  // The old map stays until the new one exists: the scale bridge needs it.
+  reference_ = last_good_;
+  if (!reference_.valid) snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+}
+
+void Pipeline::maybeInsertKeyframe(FrameResult* result) {
+  ++frames_since_keyframe_;
+  const Keyframe& last = map_.keyframes().back();
+  bearings_kf_.clear();
+  bearings_cur_.clear();
+  for (size_t i = 0; i < track_ids_.size(); ++i) {
+    auto it = last.px_by_track.find(track_ids_[i]);
+    if (it == last.px_by_track.end()) continue;
+    bearings_kf_.push_back(camera_.pixelToBearing(it->second));
+    bearings_cur_.push_back(camera_.pixelToBearing(px_[i]));
+  }
+  const Eigen::Matrix3d R_cur_kf = result->T_world_cam.linear().transpose() * last.T_world_cam.linear();
+  KeyframeCandidate candidate;
+  candidate.frames_since_keyframe = frames_since_keyframe_;
+  candidate.tracks_at_keyframe = static_cast<int>(last.px_by_track.size());
+  candidate.surviving_tracks = static_cast<int>(bearings_kf_.size());
+  candidate.median_parallax_deg =
+      KeyframePolicy::medianParallaxDeg(bearings_kf_, bearings_cur_, R_cur_kf, &scratch_);
+  const KeyframeDecision decision = keyframe_policy_.decide(candidate);
+  if (!decision.is_keyframe) return;
+  result->is_keyframe = true;
+  result->message = "keyframe (" + decision.reason + ")";
+  insertKeyframe(result);
+}
+
+void Pipeline::insertKeyframe(FrameResult* result) {
+  const Clock::time_point start = Clock::now();
+  const uint64_t kf_id = map_.addKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_);
+  frames_since_keyframe_ = 0;
+  for (size_t i = 0; i < assoc_point_ids_.size(); ++i) {
+    if (!assoc_inlier_[i]) continue;
+    const int k = findSorted(track_ids_, assoc_track_ids_[i]);
+    if (k >= 0) map_.addObservation(assoc_point_ids_[i], kf_id, px_[static_cast<size_t>(k)]);
+  }
+  const int created = triangulateNewPoints(kf_id);
+  map_.retainTracks(track_ids_);
+  map_.dropKeyframesOutsideWindow(config_.map.window_keyframes);
+  const int culled = map_.cull(config_.map);
+  result->message += ": +" + std::to_string(created) + " points, -" + std::to_string(culled) + " culled";
+  result->times.mapping_ms = msSince(start);
+  runBundleAdjustment(result);
+}
+
+int Pipeline::triangulateNewPoints(uint64_t new_keyframe_id) {
+  const auto& kfs = map_.keyframes();
+  const Keyframe& cur = kfs.back();
+  // Each track without a point is triangulated against the OLDEST kept keyframe that saw it: the widest
+  // baseline. Tracks are grouped by that keyframe so that each group is one triangulatePoints() call.
+  std::vector<std::vector<size_t>> groups(kfs.size());
+  for (size_t i = 0; i < track_ids_.size(); ++i) {
+    if (map_.pointForTrack(track_ids_[i]) != nullptr) continue;
+    for (size_t k = 0; k + 1 < kfs.size(); ++k) {
+      if (kfs[k].px_by_track.count(track_ids_[i]) != 0) {
+        groups[k].push_back(i);
+        break;
+      }
+    }
+  }
+  TriangulationOptions options;
+  options.max_reprojection_error_px = config_.map.max_reprojection_error_px;
+  options.min_parallax_deg = config_.map.min_triangulation_parallax_deg;
+  const Pose T_cur_world = cur.T_world_cam.inverse();
+  int created = 0;
+  std::vector<cv::Point2d> px1, px2;
+  for (size_t k = 0; k + 1 < kfs.size(); ++k) {
+    if (groups[k].empty()) continue;
+    const Keyframe& ref = kfs[k];
+    px1.clear();
+    px2.clear();
+    for (size_t i : groups[k]) {
+      const Eigen::Vector2d& a = ref.px_by_track.at(track_ids_[i]);
+      px1.emplace_back(a.x(), a.y());
+      px2.emplace_back(px_[i].x(), px_[i].y());
+    }
+    const TriangulationResult tri = triangulatePoints(px1, px2, K_, T_cur_world * ref.T_world_cam, options);
+    for (size_t j = 0; j < groups[k].size(); ++j) {
+      if (!tri.valid[j]) continue;
+      const size_t i = groups[k][j];
+      const Eigen::Vector3d p_world = ref.T_world_cam * tri.points_c1[j];
+      std::vector<MapObservation> observations;
+      // Every kept keyframe that saw the track and agrees with the point observes it (BA constraints); the
+      // reprojection check keeps a track's drift out of the map.
+      for (size_t m = k; m < kfs.size(); ++m) {
+        auto it = kfs[m].px_by_track.find(track_ids_[i]);
+        if (it == kfs[m].px_by_track.end()) continue;
+        const Eigen::Vector3d p_cam = kfs[m].T_world_cam.inverse() * p_world;
+        if (p_cam.z() <= 0.0) continue;
+        const double err = (camera_.project(p_cam) - it->second).norm();
+        if (m == k || kfs[m].id == new_keyframe_id || err <= config_.map.max_reprojection_error_px)
+          observations.push_back({kfs[m].id, it->second});
+      }
+      map_.addPoint(track_ids_[i], p_world, std::move(observations));
+      ++created;
+    }
+  }
+  return created;
+}
+
+void Pipeline::runBundleAdjustment(FrameResult* result) {
+  if (!config_.bundle_adjustment.enabled) return;
+  const Clock::time_point start = Clock::now();
+  BaProblem problem = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, kNumFixedBaKeyframes,
+                                         camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy());
+  const bool has_free_pose = std::any_of(problem.keyframes.begin(), problem.keyframes.end(),
+                                         [](const BaKeyframe& k) { return !k.fixed; });
+  if (!has_free_pose || problem.points.empty()) return;
+  if (async_ba_) {
+    async_ba_->submit(std::move(problem));
+    result->times.ba_ms = msSince(start);
+    return;
+  }
+  const BaSummary summary = adjustBundle(&problem, config_.bundle_adjustment);
+  if (summary.converged) {
+    const int removed = map_.applyBaResult(problem, summary.outliers);
+    // The current frame is the newest keyframe: report its adjusted pose.
+    result->T_world_cam = map_.keyframes().back().T_world_cam;
+    last_good_.T_world_cam = result->T_world_cam;
+    result->message += "; BA " + std::to_string(summary.initial_rms_px).substr(0, 5) + " -> " +
+                       std::to_string(summary.final_rms_px).substr(0, 5) + " px, -" + std::to_string(removed);
+  }
+  result->times.ba_ms = msSince(start);
+}
+
+void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
+  if (!async_ba_) return;
+  const Clock::time_point start = Clock::now();
+  auto finished = async_ba_->takeResult();
+  if (!finished || !finished->second.converged) return;
+  map_.applyBaResult(finished->first, finished->second.outliers);
+  result->times.ba_ms = msSince(start);
+}
+
+}  // namespace planetary_vo
