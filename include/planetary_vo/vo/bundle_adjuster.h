@@ -6,10 +6,26 @@
 ///
 /// Poses are T_cam_world (world -> camera, the form the reprojection residual needs); observations are IDEAL
 /// (undistorted) pixels of a pinhole camera with intrinsics K.
+///
+/// Contract of adjustBundle() / refinePose() (bundle_adjuster.cpp):
+/// - Bad input is a caller bug and throws std::invalid_argument: an observation naming a keyframe or point
+///   id that is not in the problem, duplicate keyframe or point ids, fx/fy not positive, a robust loss with
+///   a non-positive scale, negative max_iterations, refinePose() with p_world and px of different sizes.
+/// - Gauge: the caller fixes it. Hold at least one keyframe fixed (rotation + translation) and, for
+///   monocular windows, a second one or some fixed points (scale); otherwise only Levenberg-Marquardt
+///   damping keeps the free gauge directions from wandering (it works, but slower and less reproducibly).
+/// - A non-fixed point seen by fewer than two keyframes (fixed or not) has no observable depth: it is held
+///   constant, and its observation still constrains the pose.
+/// - An observation whose point is not in front of its camera at the start cannot be evaluated: it is
+///   left out of the solve and of the RMS, and is reported in BaSummary::outliers.
+/// - Only robust_loss, robust_loss_scale_px and max_iterations of the config are used here; enabled,
+///   window_keyframes and asynchronous are the pipeline's business. The solver runs single-threaded
+///   (tracking owns the other core).
 
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <optional>
@@ -53,16 +69,21 @@ struct BaSummary {
   int iterations = 0;
   double initial_rms_px = 0.0;   ///< RMS reprojection error over all observations before
   double final_rms_px = 0.0;     ///< and after the adjustment
-  double solve_ms = 0.0;
+  double solve_ms = 0.0;  ///< wall time of the whole call (set-up, solve, evaluation)
   /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops them.
+  /// The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera are
+  /// listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.
   std::vector<BaObservation> outliers;
 };
 
-/// Optimises the non-fixed keyframe poses and points of `problem` in place.
+/// Optimises the non-fixed keyframe poses and points of `problem` in place. The problem is written back
+/// only when Ceres reports a usable solution (summary.converged); otherwise it is left untouched. An empty
+/// problem, or one with nothing free, is "converged" after 0 iterations.
 BaSummary adjustBundle(BaProblem* problem, const BundleAdjustmentConfig& config);
 
 /// Motion-only refinement: the camera pose that minimises the robust reprojection error of fixed world points.
-/// Returns the summary; `T_cam_world` is updated in place.
+/// Returns the summary; `T_cam_world` is updated in place. With no point in front of the camera the pose
+/// is undetermined: converged is false and the pose is unchanged.
 BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                      const std::vector<Eigen::Vector2d>& px, double fx, double fy, double cx, double cy,
                      const BundleAdjustmentConfig& config);
@@ -71,6 +92,10 @@ BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_wo
 /// At most one problem is in flight; submitting while busy replaces the queued (not yet started) problem.
 /// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its own
 /// copy of the problem.
+/// A solve that failed with an exception (bad input, see above) is rethrown by the next takeResult().
+/// Destroying the adjuster while a solve runs aborts that solve at its next Ceres iteration (an
+/// IterationCallback watching abort_) and discards its result and any queued problem, so the destructor
+/// waits for at most one iteration, not the whole solve.
 class AsyncBundleAdjuster {
  public:
   explicit AsyncBundleAdjuster(const BundleAdjustmentConfig& config);
@@ -94,7 +119,9 @@ class AsyncBundleAdjuster {
   std::optional<std::pair<BaProblem, BaSummary>> finished_;
   bool running_ = false;
   bool stop_ = false;
-  std::thread worker_;
+  std::atomic<bool> abort_{false};  ///< read by the Ceres callback without the mutex
+  std::exception_ptr error_;        ///< exception of the last solve, rethrown by takeResult()
+  std::thread worker_;              ///< last member: started once everything above is constructed
 };
 
 }  // namespace planetary_vo

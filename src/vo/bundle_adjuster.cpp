@@ -1,0 +1,443 @@
+/// @file bundle_adjuster.cpp
+/// Windowed bundle adjustment and motion-only refinement with Ceres (thesis 3.5.2), plus the background
+/// worker.
+///
+/// Parameterisation: each keyframe is a unit quaternion block (Eigen order x, y, z, w, on
+/// ceres::EigenQuaternionManifold) and a translation block, both of T_cam_world; each point is a 3-vector
+/// block. The quaternion avoids the singularity of Euler angles and the manifold keeps the update
+/// 3-dimensional, so the normal equations stay full rank in the rotation.
+
+#include "planetary_vo/vo/bundle_adjuster.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+#include <Eigen/Geometry>
+
+namespace planetary_vo {
+namespace {
+
+/// Windows with at most this many free poses reduce to a Schur complement of at most 6 * 30 = 180 unknowns,
+/// which a dense Cholesky factorises faster than any sparse one (no symbolic analysis). Larger ones go
+/// sparse.
+constexpr int kMaxDensePoses = 30;
+
+/// Pixel residual of one observation: K * (R * p + t) projected, minus the measured ideal pixel.
+struct ReprojectionResidual {
+  ReprojectionResidual(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy)
+      : px_(px), fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
+
+  template <typename T>
+  bool operator()(const T* q_cam_world, const T* t_cam_world, const T* p_world, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(q_cam_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(t_cam_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(p_world);
+    const Eigen::Matrix<T, 3, 1> p_cam = q * p + t;
+    // A point on or behind the image plane has no projection. Failing the evaluation makes
+    // Levenberg-Marquardt reject the step and shrink the trust region instead of following a sign flip of the
+    // depth.
+    if (!(p_cam.z() > T(0))) return false;
+    residual[0] = T(fx_) * p_cam.x() / p_cam.z() + T(cx_) - T(px_.x());
+    residual[1] = T(fy_) * p_cam.y() / p_cam.z() + T(cy_) - T(px_.y());
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy) {
+    return new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 4, 3, 3>(
+        new ReprojectionResidual(px, fx, fy, cx, cy));
+  }
+
+  Eigen::Vector2d px_;
+  double fx_, fy_, cx_, cy_;
+};
+
+/// Stops the solve at the next iteration once the flag is raised (AsyncBundleAdjuster's destructor).
+class AbortCallback : public ceres::IterationCallback {
+ public:
+  explicit AbortCallback(const std::atomic<bool>* abort) : abort_(abort) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return abort_->load(std::memory_order_relaxed) ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* abort_;
+};
+
+struct PoseBlock {
+  std::array<double, 4> q;  ///< Eigen coefficient order x, y, z, w
+  std::array<double, 3> t;
+};
+
+PoseBlock toBlock(const Pose& T) {
+  // Isometry3d::rotation() would run an SVD polar decomposition; linear() is a rotation by contract.
+  const Eigen::Quaterniond q(T.linear());
+  PoseBlock b;
+  Eigen::Map<Eigen::Quaterniond>(b.q.data()) = q.normalized();
+  Eigen::Map<Eigen::Vector3d>(b.t.data()) = T.translation();
+  return b;
+}
+
+Pose toPose(const PoseBlock& b) {
+  Pose T = Pose::Identity();
+  T.linear() = Eigen::Map<const Eigen::Quaterniond>(b.q.data()).normalized().toRotationMatrix();
+  T.translation() = Eigen::Map<const Eigen::Vector3d>(b.t.data());
+  return T;
+}
+
+void validateConfig(const BundleAdjustmentConfig& config) {
+  if (config.robust_loss != RobustLoss::kNone &&
+      !(config.robust_loss_scale_px > 0.0 && std::isfinite(config.robust_loss_scale_px))) {
+    throw std::invalid_argument("bundle adjustment: robust_loss_scale_px must be positive, got " +
+                                std::to_string(config.robust_loss_scale_px));
+  }
+  if (config.max_iterations < 0) {
+    throw std::invalid_argument("bundle adjustment: max_iterations must not be negative, got " +
+                                std::to_string(config.max_iterations));
+  }
+}
+
+std::unique_ptr<ceres::LossFunction> makeLoss(const BundleAdjustmentConfig& config) {
+  // Both losses take the scale in the residual's unit (px): Huber is quadratic up to `scale` px and linear
+  // beyond; Cauchy keeps a slowly growing (log) cost, so a gross outlier barely pulls at all.
+  switch (config.robust_loss) {
+    case RobustLoss::kHuber:
+      return std::make_unique<ceres::HuberLoss>(config.robust_loss_scale_px);
+    case RobustLoss::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(config.robust_loss_scale_px);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;  // plain squared error
+}
+
+/// Error in px of every observation of `problem` (negative: point not in front of the camera).
+std::vector<double> reprojectionErrors(const BaProblem& problem, const std::vector<size_t>& obs_keyframe,
+                                       const std::vector<size_t>& obs_point) {
+  std::vector<PoseBlock> poses(problem.keyframes.size());
+  for (size_t k = 0; k < poses.size(); ++k) poses[k] = toBlock(problem.keyframes[k].T_cam_world);
+  std::vector<double> errors(problem.observations.size(), -1.0);
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    const PoseBlock& pose = poses[obs_keyframe[i]];
+    const Eigen::Vector3d& p = problem.points[obs_point[i]].p_world;
+    const ReprojectionResidual residual(problem.observations[i].px, problem.fx, problem.fy, problem.cx,
+                                        problem.cy);
+    Eigen::Vector2d r;
+    if (residual(pose.q.data(), pose.t.data(), p.data(), r.data())) errors[i] = r.norm();
+  }
+  return errors;
+}
+
+double rms(const std::vector<double>& errors) {
+  double sum = 0.0;
+  size_t n = 0;
+  for (double e : errors) {
+    if (e < 0.0) continue;
+    sum += e * e;
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
+template <typename Item>
+std::unordered_map<uint64_t, size_t> indexById(const std::vector<Item>& items, const char* what) {
+  std::unordered_map<uint64_t, size_t> index;
+  index.reserve(items.size());
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (!index.emplace(items[i].id, i).second) {
+      throw std::invalid_argument(std::string("bundle adjustment: duplicate ") + what + " id " +
+                                  std::to_string(items[i].id));
+    }
+  }
+  return index;
+}
+
+double elapsedMs(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// adjustBundle() with an optional abort flag; `num_residuals` (optional) receives how many observations took
+/// part in the solve.
+BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& config,
+                           const std::atomic<bool>* abort, size_t* num_residuals) {
+  const auto start = std::chrono::steady_clock::now();
+  if (problem == nullptr) throw std::invalid_argument("bundle adjustment: null problem");
+  validateConfig(config);
+  const size_t num_obs = problem->observations.size();
+  if (num_obs > 0 && !(problem->fx > 0.0 && problem->fy > 0.0)) {
+    throw std::invalid_argument("bundle adjustment: fx and fy must be positive");
+  }
+
+  // Resolve every observation first, so that a bad id throws before anything is touched.
+  const auto keyframe_index = indexById(problem->keyframes, "keyframe");
+  const auto point_index = indexById(problem->points, "point");
+  std::vector<size_t> obs_keyframe(num_obs), obs_point(num_obs);
+  for (size_t i = 0; i < num_obs; ++i) {
+    const BaObservation& o = problem->observations[i];
+    const auto kf = keyframe_index.find(o.keyframe_id);
+    const auto pt = point_index.find(o.point_id);
+    if (kf == keyframe_index.end() || pt == point_index.end()) {
+      std::ostringstream msg;
+      msg << "bundle adjustment: observation " << i << " names "
+          << (kf == keyframe_index.end() ? "missing keyframe " : "missing point ")
+          << (kf == keyframe_index.end() ? o.keyframe_id : o.point_id);
+      throw std::invalid_argument(msg.str());
+    }
+    obs_keyframe[i] = kf->second;
+    obs_point[i] = pt->second;
+  }
+
+  BaSummary summary;
+  const std::vector<double> initial_errors = reprojectionErrors(*problem, obs_keyframe, obs_point);
+  summary.initial_rms_px = rms(initial_errors);
+
+  // Observations per point among the evaluable ones: a point seen once has no depth to estimate.
+  std::vector<int> point_obs_count(problem->points.size(), 0);
+  for (size_t i = 0; i < num_obs; ++i) {
+    if (initial_errors[i] >= 0.0) ++point_obs_count[obs_point[i]];
+  }
+  auto pointConstant = [&](size_t j) { return problem->points[j].fixed || point_obs_count[j] < 2; };
+
+  // Parameter blocks: copies of the problem's values, written back only if the solve is usable. The vectors
+  // are sized once so the pointers handed to Ceres stay valid.
+  std::vector<PoseBlock> poses(problem->keyframes.size());
+  for (size_t k = 0; k < poses.size(); ++k) poses[k] = toBlock(problem->keyframes[k].T_cam_world);
+  std::vector<std::array<double, 3>> points(problem->points.size());
+  for (size_t j = 0; j < points.size(); ++j) {
+    Eigen::Map<Eigen::Vector3d>(points[j].data()) = problem->points[j].p_world;
+  }
+
+  // Declared before the problem so that they outlive it (the problem only borrows them).
+  const std::unique_ptr<ceres::LossFunction> loss = makeLoss(config);
+  const auto manifold = std::make_unique<ceres::EigenQuaternionManifold>();
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem ceres_problem(problem_options);
+
+  std::vector<char> pose_used(poses.size(), 0), point_used(points.size(), 0);
+  size_t residuals = 0;
+  for (size_t i = 0; i < num_obs; ++i) {
+    const size_t k = obs_keyframe[i], j = obs_point[i];
+    if (initial_errors[i] < 0.0) continue;  // behind the camera: reported as outlier below
+    // A residual with nothing free only adds a constant to the cost.
+    if (problem->keyframes[k].fixed && pointConstant(j)) continue;
+    ceres_problem.AddResidualBlock(ReprojectionResidual::create(problem->observations[i].px, problem->fx,
+                                                                problem->fy, problem->cx, problem->cy),
+                                   loss.get(), poses[k].q.data(), poses[k].t.data(), points[j].data());
+    pose_used[k] = point_used[j] = 1;
+    ++residuals;
+  }
+  if (num_residuals != nullptr) *num_residuals = residuals;
+
+  int free_poses = 0, free_points = 0;
+  for (size_t k = 0; k < poses.size(); ++k) {
+    if (!pose_used[k]) continue;
+    ceres_problem.SetManifold(poses[k].q.data(), manifold.get());
+    if (problem->keyframes[k].fixed) {
+      ceres_problem.SetParameterBlockConstant(poses[k].q.data());
+      ceres_problem.SetParameterBlockConstant(poses[k].t.data());
+    } else {
+      ++free_poses;
+    }
+  }
+  for (size_t j = 0; j < points.size(); ++j) {
+    if (!point_used[j]) continue;
+    if (pointConstant(j)) {
+      ceres_problem.SetParameterBlockConstant(points[j].data());
+    } else {
+      ++free_points;
+    }
+  }
+
+  bool usable = true;
+  if (free_poses + free_points > 0) {
+    ceres::Solver::Options options;
+    options.max_num_iterations = config.max_iterations;
+    options.num_threads = 1;
+    options.logging_type = ceres::SILENT;
+    options.minimizer_progress_to_stdout = false;
+    const bool have_sparse = options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
+    if (free_poses == 0) {
+      // Structure only: the normal equations are block diagonal (one 3x3 per point).
+      options.linear_solver_type = have_sparse ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
+    } else if (free_points == 0) {
+      // Motion only: 6 unknowns per pose, nothing to eliminate.
+      options.linear_solver_type =
+          free_poses <= kMaxDensePoses || !have_sparse ? ceres::DENSE_QR : ceres::SPARSE_NORMAL_CHOLESKY;
+    } else {
+      // Eliminate the points (group 0) and solve the reduced camera system (group 1). Constant blocks must be
+      // in the ordering too: Ceres checks it against all parameter blocks before removing the constant ones.
+      options.linear_solver_type =
+          free_poses <= kMaxDensePoses || !have_sparse ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (size_t j = 0; j < points.size(); ++j) {
+        if (point_used[j]) ordering->AddElementToGroup(points[j].data(), 0);
+      }
+      for (size_t k = 0; k < poses.size(); ++k) {
+        if (!pose_used[k]) continue;
+        ordering->AddElementToGroup(poses[k].q.data(), 1);
+        ordering->AddElementToGroup(poses[k].t.data(), 1);
+      }
+      options.linear_solver_ordering = ordering;
+    }
+    AbortCallback abort_callback(abort);
+    if (abort != nullptr) options.callbacks.push_back(&abort_callback);
+
+    ceres::Solver::Summary ceres_summary;
+    ceres::Solve(options, &ceres_problem, &ceres_summary);
+    usable = ceres_summary.IsSolutionUsable();
+    summary.iterations = ceres_summary.num_successful_steps + ceres_summary.num_unsuccessful_steps;
+    if (usable) {
+      for (size_t k = 0; k < poses.size(); ++k) {
+        if (pose_used[k] && !problem->keyframes[k].fixed)
+          problem->keyframes[k].T_cam_world = toPose(poses[k]);
+      }
+      for (size_t j = 0; j < points.size(); ++j) {
+        if (point_used[j] && !pointConstant(j)) {
+          problem->points[j].p_world = Eigen::Map<const Eigen::Vector3d>(points[j].data());
+        }
+      }
+    }
+  }
+  summary.converged = usable;
+
+  const std::vector<double> final_errors =
+      usable ? reprojectionErrors(*problem, obs_keyframe, obs_point) : initial_errors;
+  summary.final_rms_px = rms(final_errors);
+  const double outlier_px = 3.0 * config.robust_loss_scale_px;
+  for (size_t i = 0; i < num_obs; ++i) {
+    if (final_errors[i] < 0.0 || final_errors[i] > outlier_px)
+      summary.outliers.push_back(problem->observations[i]);
+  }
+  summary.solve_ms = elapsedMs(start);
+  return summary;
+}
+
+}  // namespace
+
+BaSummary adjustBundle(BaProblem* problem, const BundleAdjustmentConfig& config) {
+  return adjustBundleImpl(problem, config, nullptr, nullptr);
+}
+
+BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
+                     const std::vector<Eigen::Vector2d>& px, double fx, double fy, double cx, double cy,
+                     const BundleAdjustmentConfig& config) {
+  const auto start = std::chrono::steady_clock::now();
+  if (T_cam_world == nullptr) throw std::invalid_argument("refinePose: null pose");
+  if (p_world.size() != px.size()) {
+    throw std::invalid_argument("refinePose: " + std::to_string(p_world.size()) + " points but " +
+                                std::to_string(px.size()) + " pixels");
+  }
+  // The same problem as a one-keyframe window with every point fixed: same residual, same loss, same outlier
+  // rule, and adjustBundleImpl picks the dense motion-only solver.
+  BaProblem problem;
+  problem.fx = fx;
+  problem.fy = fy;
+  problem.cx = cx;
+  problem.cy = cy;
+  problem.keyframes.push_back(BaKeyframe{0, *T_cam_world, false});
+  problem.points.reserve(p_world.size());
+  problem.observations.reserve(px.size());
+  for (size_t i = 0; i < p_world.size(); ++i) {
+    problem.points.push_back(BaPoint{i, p_world[i], true});
+    problem.observations.push_back(BaObservation{0, i, px[i]});
+  }
+  size_t num_residuals = 0;
+  BaSummary summary = adjustBundleImpl(&problem, config, nullptr, &num_residuals);
+  if (num_residuals == 0) {
+    summary.converged = false;  // nothing constrains the pose
+  } else if (summary.converged) {
+    *T_cam_world = problem.keyframes.front().T_cam_world;
+  }
+  summary.solve_ms = elapsedMs(start);
+  return summary;
+}
+
+AsyncBundleAdjuster::AsyncBundleAdjuster(const BundleAdjustmentConfig& config)
+    : config_(config), worker_([this] { run(); }) {}
+
+AsyncBundleAdjuster::~AsyncBundleAdjuster() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+    queued_.reset();
+  }
+  abort_.store(true);
+  wake_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void AsyncBundleAdjuster::submit(BaProblem problem) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queued_ = std::move(problem);  // a newer window supersedes one that has not started
+  }
+  wake_.notify_one();
+}
+
+std::optional<std::pair<BaProblem, BaSummary>> AsyncBundleAdjuster::takeResult() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (error_) {
+    std::exception_ptr error = error_;
+    error_ = nullptr;
+    std::rethrow_exception(error);
+  }
+  std::optional<std::pair<BaProblem, BaSummary>> result = std::move(finished_);
+  finished_.reset();
+  return result;
+}
+
+void AsyncBundleAdjuster::waitIdle() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  idle_.wait(lock, [this] { return !running_ && !queued_; });
+}
+
+bool AsyncBundleAdjuster::busy() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return running_ || queued_.has_value();
+}
+
+void AsyncBundleAdjuster::run() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [this] { return stop_ || queued_.has_value(); });
+    if (stop_) break;
+    BaProblem problem = std::move(*queued_);
+    queued_.reset();
+    running_ = true;
+    lock.unlock();
+
+    // The solve runs without the lock, so submit()/takeResult() never wait for it.
+    std::optional<BaSummary> summary;
+    std::exception_ptr error;
+    try {
+      summary = adjustBundleImpl(&problem, config_, &abort_, nullptr);
+    } catch (...) {
+      error = std::current_exception();
+    }
+
+    lock.lock();
+    running_ = false;
+    if (!stop_) {  // an aborted solve is discarded, not published
+      if (error) {
+        error_ = error;
+        finished_.reset();
+      } else {
+        error_ = nullptr;
+        finished_.emplace(std::move(problem), std::move(*summary));
+      }
+    }
+    idle_.notify_all();
+  }
+}
+
+}  // namespace planetary_vo
