@@ -258,12 +258,7 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
     Chunk& c = *n.chunk;
     c.height.resize(kChunk * kChunk);
     c.albedo.resize(kChunk * kChunk);
-    for (int j = 0; j < kChunk; ++j)
-      for (int i = 0; i < kChunk; ++i) {
-        const LunarTerrain::Sample smp = ter.sample((n.ci * kChunk + i) * s, (n.cj * kChunk + j) * s, s);
-        c.height[j * kChunk + i] = static_cast<float>(smp.height_m);
-        c.albedo[j * kChunk + i] = static_cast<float>(smp.albedo);
-      }
+    ter.sampleGrid(n.ci * kChunk, n.cj * kChunk, kChunk, kChunk, s, s, c.height.data(), c.albedo.data());
   });
   stats->chunks_baked = static_cast<int>(missing.size());
   stats->chunks_used = static_cast<int>(needs.size());

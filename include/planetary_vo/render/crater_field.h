@@ -11,6 +11,7 @@
 /// raised rims, a bright ejecta blanket and boulders; old ones are shallow, rounded and of background albedo.
 
 #include <cstdint>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -53,6 +54,13 @@ class CraterField {
   };
   Contribution evaluate(double x, double y, double lod_m) const;
 
+  /// evaluate() at every node (xs[i], ys[j]) of a grid (xs, ys increasing), added to height[j * nx + i] and
+  /// albedo[...]. Bit-identical to evaluate() node by node, but splats each crater and boulder onto the nodes
+  /// it reaches instead of hashing 9 cells per class per node: ~0.6 crater evaluations per node and class
+  /// instead of 9 cell generations (this is the renderer's baking hot spot).
+  void evaluateGrid(const std::vector<double>& xs, const std::vector<double>& ys, double lod_m,
+                    double* height, double* albedo) const;
+
   /// Relief of one crater alone at distance r from its centre (used by evaluate and by the tests).
   static double craterProfile(const Crater& c, double r);
 
@@ -60,6 +68,8 @@ class CraterField {
 
  private:
   void addBoulders(const Crater& c, double x, double y, double rho, double lod_m, Contribution* out) const;
+  void splatBoulders(const Crater& c, const std::vector<double>& xs, const std::vector<double>& ys, int i0,
+                     int i1, int j0, int j1, double lod_m, double* height, double* albedo) const;
 
   uint64_t seed_;
   CraterFieldParams params_;

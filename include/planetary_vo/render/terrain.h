@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -39,6 +40,12 @@ class LunarTerrain {
   /// Height and albedo at world (x, y) with detail down to the footprint `lod_m` (> 0).
   Sample sample(double x, double y, double lod_m) const;
   double height(double x, double y, double lod_m) const { return sample(x, y, lod_m).height_m; }
+  /// sample() at every node ((i0 + i) * spacing, (j0 + j) * spacing), i < nx, j < ny, written to
+  /// height[j * nx + i] and albedo[...]. Identical to sample() node by node, but evaluated per feature:
+  /// noise lattice corners hashed once per grid, craters and boulders splatted onto the nodes they reach.
+  /// This is what the renderer bakes its LOD lattices with.
+  void sampleGrid(int64_t i0, int64_t j0, int nx, int ny, double spacing, double lod_m, float* height,
+                  float* albedo) const;
   /// Upward unit normal from central differences one footprint apart.
   Eigen::Vector3d normal(double x, double y, double lod_m) const;
   /// Large-scale relief only (DEM, in world z): used for trajectory placement and region bounds.
@@ -57,6 +64,7 @@ class LunarTerrain {
   TerrainParams params_;
   CraterField craters_;
   double octave_amplitude_[40] = {};
+  double cos_heading_ = 1.0, sin_heading_ = 0.0;  // of the placement, computed once (demHeight is hot)
 };
 
 }  // namespace planetary_vo::render

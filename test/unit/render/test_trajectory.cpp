@@ -146,6 +146,38 @@ TEST(CraterField, PowerLawSizeFrequencyAndMorphology) {
   EXPECT_EQ(CraterField::craterProfile(fresh, 130.0), 0.0);         // ejecta ends at 2.5 R
 }
 
+// The renderer bakes its lattices with sampleGrid (per-feature splatting); it must be the same terrain as
+// point sampling, bit for bit, at every level of detail (fine levels: boulders and small craters; coarse
+// ones: only DEM, large craters and low octaves), including negative coordinates and cell boundaries.
+TEST(LunarTerrain, GridBakingEqualsPointSampling) {
+  const std::string dem_path = test::dataPath("lunar_dem/apollo15_gld100.yaml");
+  ASSERT_TRUE(test::requireDataFile(dem_path));
+  const auto dem = LunarDem::load(dem_path);
+  const DescentTrajectory tr = DescentTrajectory::fromSequence(findSequence("approach_down"));
+  TerrainParams tp;
+  tp.seed = 3;
+  const LunarTerrain terrain(dem, placeTrajectoryOnDem(*dem, tr), tp);
+  const int n = 40;
+  std::vector<float> h(n * n), a(n * n);
+  int checked = 0, differing_from_flat = 0;
+  for (int level = 0; level <= 12; level += 2) {
+    const double s = std::ldexp(1.0, level) / 64.0;
+    for (const auto& origin : {std::pair<int64_t, int64_t>{-20, -7}, {-517, 913}, {12345, -4321}}) {
+      terrain.sampleGrid(origin.first, origin.second, n, n, s, s, h.data(), a.data());
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const LunarTerrain::Sample p = terrain.sample((origin.first + i) * s, (origin.second + j) * s, s);
+          ASSERT_EQ(h[j * n + i], static_cast<float>(p.height_m)) << level << " " << i << " " << j;
+          ASSERT_EQ(a[j * n + i], static_cast<float>(p.albedo)) << level << " " << i << " " << j;
+          differing_from_flat += std::abs(p.albedo - tp.albedo) > 0.03;  // fresh ejecta / boulders seen
+          ++checked;
+        }
+    }
+  }
+  EXPECT_EQ(checked, 7 * 3 * n * n);
+  EXPECT_GT(differing_from_flat, 0);
+}
+
 TEST(Photometry, LunarLambertIsNotLambert) {
   // At zero phase, lunar-Lambert is Lommel-Seeliger-like: no limb darkening (brightness independent of
   // slope).
