@@ -205,9 +205,32 @@ void Pipeline::matchToCurrent(const FrameSnapshot& ref) {
 }
 
 void Pipeline::holdPose(FrameResult* result, const std::string& why) {
-  result->T_world_cam = T_world_cam_;
+  result->T_world_cam =
+      config_.pipeline.trajectory_mode == TrajectoryMode::kMap ? predictPose() : T_world_cam_;
   result->motion = MotionEstimate::kNone;
   result->message = why;
+}
+
+bool Pipeline::keyframeVelocity(Eigen::Vector3d* v_world_per_s) const {
+  const auto& kfs = map_.keyframes();
+  if (kfs.size() < 2) return false;
+  const Keyframe& a = kfs[kfs.size() - 2];
+  const Keyframe& b = kfs.back();
+  const double dt = b.timestamp_s - a.timestamp_s;
+  if (!(dt > 0.0)) return false;
+  *v_world_per_s = (b.T_world_cam.translation() - a.T_world_cam.translation()) / dt;
+  return true;
+}
+
+Pose Pipeline::predictPose() const {
+  if (!last_good_.valid) return T_world_cam_;
+  // Constant velocity from the last two keyframes, attitude held: while lost the output keeps moving as the
+  // vehicle did instead of freezing and then jumping when the chain recovers.
+  Pose T = last_good_.T_world_cam;
+  Eigen::Vector3d v_world_per_s;
+  if (keyframeVelocity(&v_world_per_s))
+    T.translation() += v_world_per_s * (timestamp_s_ - last_good_.timestamp_s);
+  return T;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -280,16 +303,16 @@ void Pipeline::tryInitialise(FrameResult* result) {
   const TrackingState waiting = recovering_ ? TrackingState::kLost : TrackingState::kInitialising;
   result->state = waiting;
   if (!reference_.valid) {
-    snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
     holdPose(result, "initialisation reference set");
+    snapshotCurrent(timestamp_s_, result->T_world_cam, &reference_);
     return;
   }
   matchToCurrent(reference_);
   if (static_cast<int>(match_ids_.size()) < std::max(8, config_.motion.min_inliers)) {
-    // The reference's tracks are gone: restart from this frame. Its pose is the held one, so a recovery that
-    // gets here continues from the last known pose (less accurate, but no jump).
-    snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+    // The reference's tracks are gone: restart from this frame. Its pose is the constant-velocity prediction,
+    // so a recovery that gets here continues from the last known motion (less accurate, but no jump).
     holdPose(result, "too few tracks left from the initialisation reference; reference moved");
+    snapshotCurrent(timestamp_s_, result->T_world_cam, &reference_);
     return;
   }
   // Cheap pre-check before any RANSAC: the raw image motion must at least reach the parallax the two-view
@@ -366,17 +389,11 @@ double Pipeline::bridgeScale(const Initialization& init, double* confidence_fact
   }
   // 2. The speed between the last two keyframes of the old map, over the new baseline's time span: the
   //    new baseline (unit length) gets the distance that speed covers.
-  const auto& kfs = map_.keyframes();
+  Eigen::Vector3d v_world_per_s;
   const double dt_new = timestamp_s_ - reference_.timestamp_s;
-  if (kfs.size() >= 2 && dt_new > 0.0) {
-    const Keyframe& a = kfs[kfs.size() - 2];
-    const Keyframe& b = kfs.back();
-    const double dt_old = b.timestamp_s - a.timestamp_s;
-    const double distance = (b.T_world_cam.translation() - a.T_world_cam.translation()).norm();
-    if (dt_old > 0.0 && distance > 0.0) {
-      *confidence_factor = kSpeedBridgeConfidence;
-      return distance / dt_old * dt_new;
-    }
+  if (keyframeVelocity(&v_world_per_s) && dt_new > 0.0 && v_world_per_s.norm() > 0.0) {
+    *confidence_factor = kSpeedBridgeConfidence;
+    return v_world_per_s.norm() * dt_new;
   }
   // 3. The median scene depth of the old map seen from the reference pose (the altitude changes little over a
   //    short loss).
@@ -446,7 +463,7 @@ void Pipeline::startRecovery() {
   failed_frames_ = 0;
   // The old map stays until the new one exists: the scale bridge needs it.
   reference_ = last_good_;
-  if (!reference_.valid) snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
+  if (!reference_.valid) snapshotCurrent(timestamp_s_, predictPose(), &reference_);
 }
 
 void Pipeline::maybeInsertKeyframe(FrameResult* result) {

@@ -53,7 +53,8 @@ struct FrameResult {
   /// False when the frame was skipped by keyframe.process_every_n_frames; then nothing else below changed.
   bool processed = false;
   /// Camera optical frame in the VO world frame (the first keyframe's camera at the origin). Never NaN: while
-  /// lost it holds the last good pose.
+  /// lost it is the last good pose moved on at the last keyframe velocity (map mode) or the last pose held
+  /// (unit-step chain, whose steps have no common scale), so it does not jump when the chain recovers.
   Pose T_world_cam = Pose::Identity();
   TrackingState state = TrackingState::kInitialising;
   MotionEstimate motion = MotionEstimate::kNone;

@@ -102,7 +102,12 @@ class Pipeline {
   int triangulateNewPoints(uint64_t new_keyframe_id);
   void runBundleAdjustment(FrameResult* result);
   void applyAsyncBundleAdjustment(FrameResult* result);
+  /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
   void holdPose(FrameResult* result, const std::string& why);
+  /// Velocity of the camera centre between the two newest keyframes (world units per second).
+  bool keyframeVelocity(Eigen::Vector3d* v_world_per_s) const;
+  /// The last good pose moved on at the keyframe velocity to the current time (attitude held).
+  Pose predictPose() const;
 
   VoConfig config_;
   PinholeCamera camera_;

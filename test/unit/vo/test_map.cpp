@@ -1,0 +1,136 @@
+/// Tests of the windowed Map: track <-> point links, the window dropping keyframes and orphaned points (flat
+/// memory), culling, and the bundle-adjustment copy and write-back.
+
+#include <algorithm>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "planetary_vo/vo/map.h"
+
+namespace planetary_vo {
+namespace {
+
+Pose at(double x) {
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+  return T;
+}
+
+uint64_t addKf(Map* map, double x, const std::vector<uint64_t>& tracks) {
+  return map->addKeyframe(x, at(x), tracks,
+                          std::vector<Eigen::Vector2d>(tracks.size(), Eigen::Vector2d(1, 2)));
+}
+
+TEST(Map, TracksCarryPoints) {
+  Map map;
+  const uint64_t kf0 = addKf(&map, 0.0, {1, 2, 3});
+  const uint64_t kf1 = addKf(&map, 1.0, {1, 2, 3});
+  const uint64_t p = map.addPoint(2, Eigen::Vector3d(0, 0, 10), {{kf0, {1, 1}}, {kf1, {2, 2}}});
+  ASSERT_NE(map.pointForTrack(2), nullptr);
+  EXPECT_EQ(map.pointForTrack(2)->id, p);
+  EXPECT_EQ(map.pointForTrack(1), nullptr);
+  EXPECT_EQ(map.keyframe(kf1)->px_by_track.size(), 3u);
+  EXPECT_EQ(map.keyframe(kf1)->T_world_cam.translation().x(), 1.0);
+
+  map.addObservation(p, kf1, {5, 5});  // duplicate keyframe: ignored
+  EXPECT_EQ(map.point(p)->observations.size(), 2u);
+
+  map.retainTracks({1, 3});  // track 2 died
+  EXPECT_EQ(map.pointForTrack(2), nullptr);
+  ASSERT_NE(map.point(p), nullptr);  // the point stays for BA while keyframes observe it
+  EXPECT_FALSE(map.point(p)->has_track);
+}
+
+TEST(Map, WindowDropsOldKeyframesAndOrphanedPoints) {
+  Map map;
+  std::vector<uint64_t> kfs;
+  for (int i = 0; i < 5; ++i) kfs.push_back(addKf(&map, i, {10, 11}));
+  // Point A only seen by the two oldest keyframes, its track dead; point B the same but its track alive;
+  // point C seen by the newest keyframes.
+  const uint64_t a = map.addPoint(10, {0, 0, 5}, {{kfs[0], {1, 1}}, {kfs[1], {1, 1}}});
+  map.detachTrack(10);
+  const uint64_t b = map.addPoint(11, {0, 0, 6}, {{kfs[0], {1, 1}}, {kfs[1], {1, 1}}});
+  const uint64_t c = map.addPoint(12, {0, 0, 7}, {{kfs[3], {1, 1}}, {kfs[4], {1, 1}}});
+  EXPECT_EQ(map.dropKeyframesOutsideWindow(3), 1);
+  EXPECT_EQ(map.numKeyframes(), 3u);
+  EXPECT_EQ(map.keyframes().front().id, kfs[2]);
+  EXPECT_EQ(map.keyframe(kfs[0]), nullptr);
+  EXPECT_EQ(map.point(a), nullptr);
+  ASSERT_NE(map.point(b), nullptr);  // still tracked: keeps serving PnP
+  EXPECT_TRUE(map.point(b)->observations.empty());
+  EXPECT_EQ(map.point(c)->observations.size(), 2u);
+
+  // Memory stays flat: a long run through the window keeps at most `window` keyframes.
+  for (int i = 5; i < 100; ++i) {
+    addKf(&map, i, {11});
+    map.dropKeyframesOutsideWindow(3);
+  }
+  EXPECT_EQ(map.numKeyframes(), 3u);
+}
+
+TEST(Map, CullRemovesRarelyFoundAndUnsupportedPoints) {
+  Map map;
+  const uint64_t kf0 = addKf(&map, 0, {1, 2, 3});
+  const uint64_t kf1 = addKf(&map, 1, {1, 2, 3});
+  const uint64_t good = map.addPoint(1, {0, 0, 5}, {{kf0, {1, 1}}, {kf1, {1, 1}}});
+  const uint64_t bad = map.addPoint(2, {0, 0, 5}, {{kf0, {1, 1}}, {kf1, {1, 1}}});
+  const uint64_t lonely = map.addPoint(3, {0, 0, 5}, {{kf1, {1, 1}}});
+  map.point(good)->times_visible = 10;
+  map.point(good)->times_found = 9;
+  map.point(bad)->times_visible = 10;
+  map.point(bad)->times_found = 1;  // below 0.25
+  map.detachTrack(3);               // no track and one observation < min_observations 2
+  EXPECT_EQ(map.cull(MapConfig()), 2);
+  EXPECT_NE(map.point(good), nullptr);
+  EXPECT_EQ(map.point(bad), nullptr);
+  EXPECT_EQ(map.pointForTrack(2), nullptr);
+  EXPECT_EQ(map.point(lonely), nullptr);
+}
+
+TEST(Map, BundleAdjustmentCopyAndWriteBack) {
+  Map map;
+  std::vector<uint64_t> kfs;
+  for (int i = 0; i < 4; ++i) kfs.push_back(addKf(&map, i, {1, 2}));
+  const uint64_t p1 = map.addPoint(1, {0, 0, 5}, {{kfs[0], {1, 1}}, {kfs[2], {1, 1}}, {kfs[3], {1, 1}}});
+  const uint64_t p2 = map.addPoint(2, {1, 0, 5}, {{kfs[3], {1, 1}}});  // one observation: not in BA
+  BaProblem problem = map.makeBaProblem(3, 2, 500, 500, 320, 240);
+  EXPECT_EQ(problem.fx, 500.0);
+  ASSERT_EQ(problem.points.size(), 1u);
+  EXPECT_EQ(problem.points[0].id, p1);
+  EXPECT_EQ(problem.observations.size(), 3u);
+  // Keyframes 0 (outside the window, observing p1), 2 (oldest two of window {1,2,3}; 1 sees nothing) and 3.
+  ASSERT_EQ(problem.keyframes.size(), 3u);
+  for (const BaKeyframe& k : problem.keyframes) {
+    EXPECT_EQ(k.fixed, k.id != kfs[3]) << k.id;
+    EXPECT_TRUE(k.T_cam_world.isApprox(map.keyframe(k.id)->T_world_cam.inverse()));
+  }
+
+  problem.points[0].p_world = Eigen::Vector3d(0.5, 0.5, 6.0);
+  problem.keyframes.back().T_cam_world.translation() = Eigen::Vector3d(-7.0, 0, 0);
+  problem.keyframes.front().T_cam_world.translation() = Eigen::Vector3d(99.0, 0, 0);  // fixed: not written
+  EXPECT_EQ(map.applyBaResult(problem, {{kfs[0], p1, {1, 1}}}), 0);
+  EXPECT_TRUE(map.point(p1)->p_world.isApprox(Eigen::Vector3d(0.5, 0.5, 6.0)));
+  EXPECT_EQ(map.point(p1)->observations.size(), 2u);
+  EXPECT_NEAR(map.keyframe(kfs[3])->T_world_cam.translation().x(), 7.0, 1e-12);
+  EXPECT_NEAR(map.keyframe(kfs[0])->T_world_cam.translation().x(), 0.0, 1e-12);
+
+  // An outlier that leaves fewer than two observations removes the point.
+  EXPECT_EQ(map.applyBaResult(problem, {{kfs[2], p1, {1, 1}}}), 1);
+  EXPECT_EQ(map.point(p1), nullptr);
+  EXPECT_NE(map.point(p2), nullptr);
+
+  std::vector<MapPointView> views;
+  map.pointViews(&views);
+  ASSERT_EQ(views.size(), 1u);
+  EXPECT_EQ(views[0].id, p2);
+  EXPECT_EQ(views[0].num_observations, 1);
+}
+
+}  // namespace
+}  // namespace planetary_vo
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

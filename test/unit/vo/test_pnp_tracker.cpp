@@ -1,0 +1,105 @@
+/// Tests of the PnpTracker on synthetic terrain points seen from a known pose: accuracy with pixel noise,
+/// outliers found and flagged, and failure (not a guess) when too few points are in view.
+
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/vo/pnp_tracker.h"
+
+namespace planetary_vo {
+namespace {
+
+struct Scene {
+  PinholeCamera camera = PinholeCamera::fromFieldOfView(640, 480, 60.0);
+  Pose T_world_cam = Pose::Identity();
+  std::vector<Eigen::Vector3d> p_world;
+  std::vector<Eigen::Vector2d> px;
+  std::vector<bool> is_outlier;
+};
+
+/// Rolling terrain (z up, heights +-30 m) under a camera 400 m up, looking down and slightly tilted.
+Scene makeScene(int num_points, double noise_px, double outlier_ratio, unsigned seed) {
+  Scene s;
+  Eigen::Matrix3d R_world_cam;
+  R_world_cam.col(0) = Eigen::Vector3d::UnitX();
+  R_world_cam.col(1) = -Eigen::Vector3d::UnitY();
+  R_world_cam.col(2) = -Eigen::Vector3d::UnitZ();
+  s.T_world_cam.linear() =
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix() * R_world_cam;
+  s.T_world_cam.translation() = Eigen::Vector3d(20.0, -35.0, 400.0);
+  const Pose T_cam_world = s.T_world_cam.inverse();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, noise_px);
+  while (static_cast<int>(s.p_world.size()) < num_points) {
+    const Eigen::Vector2d px_true(u(rng) * 639.0, u(rng) * 479.0);
+    const Eigen::Vector3d ray_world = s.T_world_cam.linear() * s.camera.pixelToBearing(px_true);
+    const double lambda = -s.T_world_cam.translation().z() / ray_world.z();  // hit z = 0 ...
+    Eigen::Vector3d p = s.T_world_cam.translation() + lambda * ray_world;
+    p.z() = 30.0 * std::sin(p.x() / 40.0) * std::cos(p.y() / 55.0);  // ... then move onto the relief
+    const Eigen::Vector3d p_cam = T_cam_world * p;
+    Eigen::Vector2d px = s.camera.project(p_cam) + Eigen::Vector2d(noise(rng), noise(rng));
+    const bool outlier = u(rng) < outlier_ratio;
+    if (outlier) px += Eigen::Vector2d(20.0 + 40.0 * u(rng), -20.0 - 40.0 * u(rng));
+    s.p_world.push_back(p);
+    s.px.push_back(px);
+    s.is_outlier.push_back(outlier);
+  }
+  return s;
+}
+
+TEST(PnpTracker, RecoversThePoseAndFlagsOutliers) {
+  const Scene s = makeScene(200, 0.5, 0.2, 3);
+  PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K());
+  ASSERT_TRUE(r.valid) << r.reason;
+  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);  // m at 400 m altitude
+  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+  int flagged_outliers = 0, outliers = 0, lost_inliers = 0;
+  for (size_t i = 0; i < s.is_outlier.size(); ++i) {
+    outliers += s.is_outlier[i] ? 1 : 0;
+    if (s.is_outlier[i] && !r.inlier_mask[i]) ++flagged_outliers;
+    if (!s.is_outlier[i] && !r.inlier_mask[i]) ++lost_inliers;
+  }
+  EXPECT_EQ(flagged_outliers, outliers);
+  EXPECT_LE(lost_inliers, 3);
+  EXPECT_LT(r.reprojection_rms_px, 1.0);
+  EXPECT_EQ(r.num_points, 200);
+}
+
+TEST(PnpTracker, WithoutRefinementStillAccurate) {
+  const Scene s = makeScene(150, 0.3, 0.0, 5);
+  PnpConfig cfg;
+  cfg.refine = false;
+  PnpTracker tracker{cfg, BundleAdjustmentConfig()};
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K());
+  ASSERT_TRUE(r.valid) << r.reason;
+  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 1.0);
+}
+
+TEST(PnpTracker, TooFewPointsFail) {
+  const Scene s = makeScene(10, 0.3, 0.0, 7);
+  PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};  // min_inliers 15
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K());
+  EXPECT_FALSE(r.valid);
+  EXPECT_NE(r.reason.find("too few"), std::string::npos);
+}
+
+TEST(PnpTracker, MostlyOutliersFail) {
+  const Scene s = makeScene(60, 0.3, 0.9, 11);
+  PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};
+  EXPECT_FALSE(tracker.track(s.p_world, s.px, s.camera.K()).valid);
+}
+
+}  // namespace
+}  // namespace planetary_vo
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
