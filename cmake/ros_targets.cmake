@@ -1,25 +1,68 @@
 # ROS layer (thin), included by the top CMakeLists.txt. catkin's include directories are given per target, never per
 # directory, so the ROS-free core libraries cannot see a ROS header.
 #
-#   planetary_vo_ros  conversions core types <-> messages, and the dataset player core (stream, bag writer)
-#   player            the dataset player: ROS node, or `player --dataset DIR --bag OUT.bag` to write a bag
+#   planetary_vo_ros       conversions core types <-> messages, the dataset player core (stream, bag writer), the
+#                          VO output conversions and input checks, ros_params, status_reporter
+#   planetary_vo_nodelets  the nodelet planetary_vo/VisualOdometryNodelet (nodelet_plugins.xml)
+#   player                 the dataset player: ROS node, or `player --dataset DIR --bag OUT.bag` to write a bag
+#   vo_node                the nodelet in an in-process loader, for use without a manager
+#   trajectory_recorder    PoseStamped topic -> TUM file
+
+# Packages of the VO nodelet that the top-level find_package(catkin COMPONENTS ...) does not list.
+find_package(diagnostic_updater REQUIRED)
+find_package(image_geometry REQUIRED)
+find_package(dynamic_reconfigure REQUIRED)
+set(PLANETARY_VO_NODELET_INCLUDE_DIRS ${diagnostic_updater_INCLUDE_DIRS} ${dynamic_reconfigure_INCLUDE_DIRS})
+set(PLANETARY_VO_NODELET_LIBRARIES ${diagnostic_updater_LIBRARIES} ${dynamic_reconfigure_LIBRARIES})
+
+# dynamic_reconfigure: cfg/VoReconfigure.cfg -> devel/include/planetary_vo/VoReconfigureConfig.h (+ Python). The
+# macro refuses to run after catkin_package(), which the top-level file calls before including this one; its
+# output does not change catkin_package()'s exports (the generated header sits beside the messages' in
+# devel/include), so the check is lifted for this one call.
+set(_planetary_vo_catkin_package ${${PROJECT_NAME}_CATKIN_PACKAGE})
+unset(${PROJECT_NAME}_CATKIN_PACKAGE)
+generate_dynamic_reconfigure_options(cfg/VoReconfigure.cfg)
+set(${PROJECT_NAME}_CATKIN_PACKAGE ${_planetary_vo_catkin_package})
 
 # Gives a target that uses ROS headers catkin's include directories (per target: the core libraries never see
 # them) and makes it wait for the generated messages. Every ROS-layer target calls it, including the tests.
 function(planetary_vo_ros_target target)
-  target_include_directories(${target} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-  add_dependencies(${target} ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
+  target_include_directories(${target} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS} ${PLANETARY_VO_NODELET_INCLUDE_DIRS}
+                             ${CATKIN_DEVEL_PREFIX}/${CATKIN_GLOBAL_INCLUDE_DESTINATION})
+  add_dependencies(${target} ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS} ${PROJECT_NAME}_gencfg)
 endfunction()
 
 add_library(planetary_vo_ros STATIC
   ${PROJECT_SOURCE_DIR}/src/ros/conversions.cpp
-  ${PROJECT_SOURCE_DIR}/src/ros/player.cpp)
+  ${PROJECT_SOURCE_DIR}/src/ros/player.cpp
+  ${PROJECT_SOURCE_DIR}/src/ros/vo_conversions.cpp
+  ${PROJECT_SOURCE_DIR}/src/ros/ros_params.cpp
+  ${PROJECT_SOURCE_DIR}/src/ros/status_reporter.cpp)
 set_target_properties(planetary_vo_ros PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_include_directories(planetary_vo_ros PUBLIC ${PROJECT_SOURCE_DIR}/include)
-target_link_libraries(planetary_vo_ros PUBLIC planetary_vo_dataset ${catkin_LIBRARIES})
+target_link_libraries(planetary_vo_ros PUBLIC planetary_vo_dataset planetary_vo_vo planetary_vo_eval
+                      ${catkin_LIBRARIES} ${PLANETARY_VO_NODELET_LIBRARIES})
 planetary_vo_ros_target(planetary_vo_ros)
+
+add_library(planetary_vo_nodelets SHARED ${PROJECT_SOURCE_DIR}/src/ros/vo_nodelet.cpp)
+target_link_libraries(planetary_vo_nodelets planetary_vo_ros)
+planetary_vo_ros_target(planetary_vo_nodelets)
 
 add_executable(player ${PROJECT_SOURCE_DIR}/src/ros/player_node.cpp)
 target_link_libraries(player planetary_vo_ros)
 planetary_vo_ros_target(player)
-install(TARGETS player RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+
+add_executable(vo_node ${PROJECT_SOURCE_DIR}/src/ros/vo_node.cpp)
+target_link_libraries(vo_node ${catkin_LIBRARIES})
+planetary_vo_ros_target(vo_node)
+add_dependencies(vo_node planetary_vo_nodelets)  # loads it at run time
+
+add_executable(trajectory_recorder ${PROJECT_SOURCE_DIR}/src/ros/trajectory_recorder.cpp)
+target_link_libraries(trajectory_recorder ${catkin_LIBRARIES})
+planetary_vo_ros_target(trajectory_recorder)
+
+install(TARGETS player vo_node trajectory_recorder RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(TARGETS planetary_vo_nodelets
+        ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+        LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
+install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})

@@ -73,3 +73,59 @@ if(TARGET GTest::gtest)
 else()
   message(WARNING "GTest not found: the player rostests are not built (install libgtest-dev)")
 endif()
+
+# ---------------------------------------------------------------------------------------------------------------
+# VO nodelet tests
+#   ros_test_vo_conversions  gtest, no master: image conversion, input checks, status/odometry/cloud conversions
+#   rostests with the gtest nodes
+#     test_vo_node       vo_end_to_end (player node -> nodelet) and vo_bag (rosbag play of a `player --bag` bag):
+#                        Sim(3) ATE bound, map, tf world -> camera, status stream
+#     test_vo_bad_input  vo_bad_input_<case>: crafted images/camera_info published directly to the nodelet
+#     test_vo_manager    vo_reload: unload and reload of the nodelet in a running manager
+#     test_vo_params     vo_params: config/default.yaml through rosparam == loadVoConfig(default.yaml)
+# ---------------------------------------------------------------------------------------------------------------
+catkin_add_gtest(ros_test_vo_conversions test/ros/test_vo_conversions.cpp)
+if(TARGET ros_test_vo_conversions)
+  target_link_libraries(ros_test_vo_conversions planetary_vo_ros GTest::gtest_main)
+  planetary_vo_ros_target(ros_test_vo_conversions)
+endif()
+
+# A short rendered Lunar descent (256 x 256, 6 s at 10 Hz) and the bag the player writes from it.
+set(VO_TEST_DATASET ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down)
+set(VO_TEST_BAG ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down.bag)
+add_custom_command(
+  OUTPUT ${VO_TEST_DATASET}/times.txt
+  COMMAND lunar_render --sequence approach_down --output ${VO_TEST_DATASET} --width 256 --height 256
+          --duration 6 --force --no-progress --threads 2
+  DEPENDS lunar_render
+  COMMENT "Rendering the Lunar test sequence of the VO rostests")
+add_custom_command(
+  OUTPUT ${VO_TEST_BAG}
+  COMMAND player --dataset ${VO_TEST_DATASET} --bag ${VO_TEST_BAG} --no-path
+  DEPENDS player ${VO_TEST_DATASET}/times.txt
+  COMMENT "Writing the Lunar test bag with player --bag --no-path")
+add_custom_target(vo_test_data DEPENDS ${VO_TEST_DATASET}/times.txt ${VO_TEST_BAG})
+add_dependencies(tests vo_test_data planetary_vo_nodelets vo_node)
+
+if(TARGET GTest::gtest)
+  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params)
+    add_executable(${node} EXCLUDE_FROM_ALL test/ros/${node}.cpp)
+    target_link_libraries(${node} planetary_vo_ros planetary_vo_eval GTest::gtest)
+    target_include_directories(${node} PRIVATE ${PROJECT_SOURCE_DIR}/test/ros)
+    planetary_vo_ros_target(${node})
+    add_dependencies(tests ${node})
+  endforeach()
+  target_compile_definitions(test_vo_params PRIVATE PLANETARY_VO_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set(vo_deps planetary_vo_nodelets vo_test_data)
+  add_rostest(test/ros/vo_end_to_end.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_node player ${vo_deps})
+  add_rostest(test/ros/vo_bag.test ARGS bag:=${VO_TEST_BAG} dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_node ${vo_deps})
+  foreach(case encoding info_missing size_mismatch bad_intrinsics black saturated stamps dropped resolution)
+    add_rostest(test/ros/vo_bad_input.test ARGS case:=${case} dataset:=${VO_TEST_DATASET}
+                DEPENDENCIES test_vo_bad_input ${vo_deps})
+  endforeach()
+  add_rostest(test/ros/vo_reload.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_manager ${vo_deps})
+  add_rostest(test/ros/vo_params.test DEPENDENCIES test_vo_params planetary_vo_nodelets)
+endif()

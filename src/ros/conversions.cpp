@@ -9,6 +9,7 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 namespace planetary_vo::ros_io {
 
@@ -154,6 +155,53 @@ sensor_msgs::ImagePtr toImageMsg(const cv::Mat& gray, const std_msgs::Header& he
         "toImageMsg: expected an 8- or 16-bit single-channel image, got OpenCV type " +
         std::to_string(gray.type()));
   return cv_bridge::CvImage(header, encoding, gray).toImageMsg();
+}
+
+bool isSupportedEncoding(const std::string& encoding) {
+  namespace enc = sensor_msgs::image_encodings;
+  return encoding == enc::MONO8 || encoding == enc::MONO16 || encoding == enc::RGB8 ||
+         encoding == enc::BGR8 || encoding == enc::RGBA8 || encoding == enc::BGRA8;
+}
+
+bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
+  namespace enc = sensor_msgs::image_encodings;
+  if (!isSupportedEncoding(msg->encoding)) {
+    *why = "unsupported image encoding '" + msg->encoding +
+           "' (accepted: mono8, mono16, rgb8, bgr8, rgba8, bgra8)";
+    return false;
+  }
+  if (msg->width == 0 || msg->height == 0) {
+    *why = "empty image (" + std::to_string(msg->width) + "x" + std::to_string(msg->height) + ")";
+    return false;
+  }
+  const size_t row_bytes =
+      size_t(msg->width) * size_t(enc::numChannels(msg->encoding)) * size_t(enc::bitDepth(msg->encoding) / 8);
+  if (msg->step < row_bytes || msg->data.size() < size_t(msg->step) * msg->height) {
+    *why = "image data (" + std::to_string(msg->data.size()) + " bytes, step " + std::to_string(msg->step) +
+           ") does not hold " + std::to_string(msg->width) + "x" + std::to_string(msg->height) + " " +
+           msg->encoding + " pixels";
+    return false;
+  }
+  try {
+    const cv_bridge::CvImageConstPtr shared = cv_bridge::toCvShare(msg);  // no copy: the Mat views msg->data
+    const cv::Mat& in = shared->image;
+    if (msg->encoding == enc::MONO8)
+      *gray = in;
+    else if (msg->encoding == enc::MONO16)
+      in.convertTo(*gray, CV_8U, 1.0 / 256.0);
+    else if (msg->encoding == enc::RGB8)
+      cv::cvtColor(in, *gray, cv::COLOR_RGB2GRAY);
+    else if (msg->encoding == enc::BGR8)
+      cv::cvtColor(in, *gray, cv::COLOR_BGR2GRAY);
+    else if (msg->encoding == enc::RGBA8)
+      cv::cvtColor(in, *gray, cv::COLOR_RGBA2GRAY);
+    else
+      cv::cvtColor(in, *gray, cv::COLOR_BGRA2GRAY);
+  } catch (const std::exception& e) {
+    *why = std::string("image conversion failed: ") + e.what();
+    return false;
+  }
+  return true;
 }
 
 }  // namespace planetary_vo::ros_io

@@ -73,4 +73,15 @@ sensor_msgs::Range toRange(const AltimeterSample& sample, const std_msgs::Header
 /// otherwise.
 sensor_msgs::ImagePtr toImageMsg(const cv::Mat& gray, const std_msgs::Header& header);
 
+/// Image encodings toGray8() accepts: mono8, mono16, rgb8, bgr8, rgba8, bgra8.
+bool isSupportedEncoding(const std::string& encoding);
+
+/// @brief Any supported image -> 8-bit gray for the pipeline.
+/// mono8 is shared without a copy (the returned Mat points into `msg`, which must outlive it); mono16 is
+/// scaled by 1/256; colour images are converted with the ITU-R BT.601 weights (cv::cvtColor).
+/// @param why set to the reason when the image cannot be converted (unsupported encoding, empty image, step
+///        or data size inconsistent with width x height).
+/// @return false, with *why set, instead of throwing.
+bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
+
 }  // namespace planetary_vo::ros_io

@@ -1,0 +1,52 @@
+#pragma once
+/// @file ros_params.h
+/// ROS parameters -> the core VoConfig and the nodelet's own settings. ros_params.cpp is the only file of the
+/// ROS layer that reads the parameter server.
+///
+/// The pipeline parameters use the keys of config/default.yaml under the node's private namespace
+/// (~detector/num_features, ~motion/model, ...), so `<rosparam file="$(find
+/// planetary_vo)/config/default.yaml" ns="..."/>` loads them. They are turned back into YAML and parsed by
+/// the core loader (parseVoConfig), so both paths share one set of defaults, one validation and the same
+/// "unknown key" errors.
+
+#include <string>
+
+#include <ros/node_handle.h>
+
+#include "planetary_vo/vo/config.h"
+
+namespace planetary_vo::ros_io {
+
+/// Sections of VoConfig, as named in the YAML and under the private namespace.
+extern const char* const kVoConfigSections[8];
+
+/// @brief Reads ~<section>/<key> for every section of VoConfig.
+/// @throws ConfigError naming every unknown or invalid key (with the "~" prefix of the namespace).
+VoConfig loadVoConfigFromParams(const ros::NodeHandle& private_nh);
+
+/// The YAML text loadVoConfigFromParams() parses (exposed for tests and for the startup log).
+std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh);
+
+/// Settings of the nodelet itself (not of the pipeline). Defaults are stated here once.
+struct NodeletParams {
+  std::string world_frame = "world";  ///< ~world_frame: fixed frame of pose, path, map and tf (or "odom")
+  std::string camera_frame;           ///< ~camera_frame: "" = the image header's frame_id
+  std::string base_frame;   ///< ~base_frame: "" = tf world -> camera; else world -> base through static tf
+  bool publish_tf = true;   ///< ~publish_tf
+  int queue_size = 5;       ///< ~queue_size: image + camera_info subscriber queue
+  int max_path_length = 0;  ///< ~max_path_length: poses kept in vo/path, 0 = all
+  /// ~position_sigma_m, ~orientation_sigma_rad: 1-sigma of the odometry covariance with min_inliers_for_sigma
+  /// inliers while tracking; scaled by sqrt(reference / inliers), and by lost_sigma_factor while lost.
+  double position_sigma_m = 0.05;
+  double orientation_sigma_rad = 0.01;
+  double lost_sigma_factor = 100.0;
+  double min_exposure_stddev = 2.0;  ///< ~min_exposure_stddev: grey-level stddev below which a frame is blank
+  double max_saturated_ratio = 0.9;  ///< ~max_saturated_ratio: fraction of 255 pixels of a saturated frame
+  double max_frame_gap_factor = 3.0;  ///< ~max_frame_gap_factor: gap > this x median period = dropped frames
+  double min_rate_hz = 1.0;           ///< ~min_rate_hz, ~max_rate_hz: vo/odometry frequency diagnostic bounds
+  double max_rate_hz = 1000.0;
+  bool plane_prior = true;  ///< ~plane_prior: nadir-camera ground-plane prior (+z) for the homography
+};
+NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh);
+
+}  // namespace planetary_vo::ros_io

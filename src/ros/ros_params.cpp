@@ -1,0 +1,100 @@
+/// @file ros_params.cpp
+/// The only file of the ROS layer that reads parameters (see ros_params.h).
+
+#include "planetary_vo/ros_io/ros_params.h"
+
+#include <iomanip>
+#include <sstream>
+
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include "planetary_vo/vo/config_yaml.h"
+
+namespace planetary_vo::ros_io {
+
+const char* const kVoConfigSections[8] = {"detector", "tracker",           "map",     "keyframe", "motion",
+                                          "pnp",      "bundle_adjustment", "pipeline"};
+
+namespace {
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+/// One scalar as YAML; structures and lists are written as an unparseable marker so that the core loader
+/// reports the key ("wrong type") instead of this file guessing.
+std::string scalarYaml(XmlRpc::XmlRpcValue& v) {
+  std::ostringstream os;
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      os << (static_cast<bool>(v) ? "true" : "false");
+      break;
+    case XmlRpc::XmlRpcValue::TypeInt:
+      os << static_cast<int>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      os << std::setprecision(17) << static_cast<double>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeString:
+      os << quoted(static_cast<std::string>(v));
+      break;
+    default:
+      os << "[]";  // a list: the loader rejects it with the key's name
+  }
+  return os.str();
+}
+
+}  // namespace
+
+std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
+  std::ostringstream yaml;
+  for (const char* section : kVoConfigSections) {
+    XmlRpc::XmlRpcValue values;
+    if (!private_nh.getParam(section, values)) continue;
+    if (values.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+      yaml << section << ": 0\n";  // not a map: the loader names the section
+      continue;
+    }
+    yaml << section << ":\n";
+    for (auto& entry : values) yaml << "  " << entry.first << ": " << scalarYaml(entry.second) << "\n";
+  }
+  return yaml.str();
+}
+
+VoConfig loadVoConfigFromParams(const ros::NodeHandle& private_nh) {
+  try {
+    return parseVoConfig(voConfigYamlFromParams(private_nh));
+  } catch (const ConfigError& e) {
+    std::vector<std::string> problems;
+    for (const std::string& p : e.problems()) problems.push_back(private_nh.getNamespace() + "/" + p);
+    throw ConfigError(problems);
+  }
+}
+
+NodeletParams loadNodeletParams(const ros::NodeHandle& nh) {
+  NodeletParams p;
+  nh.param("world_frame", p.world_frame, p.world_frame);
+  nh.param("camera_frame", p.camera_frame, p.camera_frame);
+  nh.param("base_frame", p.base_frame, p.base_frame);
+  nh.param("publish_tf", p.publish_tf, p.publish_tf);
+  nh.param("queue_size", p.queue_size, p.queue_size);
+  nh.param("max_path_length", p.max_path_length, p.max_path_length);
+  nh.param("position_sigma_m", p.position_sigma_m, p.position_sigma_m);
+  nh.param("orientation_sigma_rad", p.orientation_sigma_rad, p.orientation_sigma_rad);
+  nh.param("lost_sigma_factor", p.lost_sigma_factor, p.lost_sigma_factor);
+  nh.param("min_exposure_stddev", p.min_exposure_stddev, p.min_exposure_stddev);
+  nh.param("max_saturated_ratio", p.max_saturated_ratio, p.max_saturated_ratio);
+  nh.param("max_frame_gap_factor", p.max_frame_gap_factor, p.max_frame_gap_factor);
+  nh.param("min_rate_hz", p.min_rate_hz, p.min_rate_hz);
+  nh.param("max_rate_hz", p.max_rate_hz, p.max_rate_hz);
+  nh.param("plane_prior", p.plane_prior, p.plane_prior);
+  if (p.queue_size < 1) p.queue_size = 1;
+  return p;
+}
+
+}  // namespace planetary_vo::ros_io

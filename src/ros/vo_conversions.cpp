@@ -1,0 +1,167 @@
+/// @file vo_conversions.cpp
+/// Pipeline values -> nodelet output messages, and input checks (see vo_conversions.h).
+
+#include "planetary_vo/ros_io/vo_conversions.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
+
+#include "planetary_vo/ros_io/conversions.h"
+
+namespace planetary_vo::ros_io {
+
+std::string checkCameraInfo(const sensor_msgs::CameraInfo& info) {
+  const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
+  if (!std::isfinite(fx) || !std::isfinite(fy) || !std::isfinite(cx) || !std::isfinite(cy))
+    return "camera_info intrinsics are not finite (K = [" + std::to_string(fx) + ", " + std::to_string(fy) +
+           ", " + std::to_string(cx) + ", " + std::to_string(cy) + "])";
+  if (fx <= 0.0 || fy <= 0.0)
+    return "camera_info intrinsics are zero or negative (fx = " + std::to_string(fx) +
+           ", fy = " + std::to_string(fy) + "): uncalibrated camera";
+  if (info.width == 0 || info.height == 0) return "camera_info has no image size (width/height 0)";
+  for (double d : info.D)
+    if (!std::isfinite(d)) return "camera_info distortion coefficients are not finite";
+  const std::string& model = info.distortion_model;
+  if (!model.empty() && model != "plumb_bob" && model != "equidistant")
+    return "unsupported distortion model '" + model + "' (accepted: plumb_bob, equidistant)";
+  std::string why;
+  if (!fromCameraInfo(info).isValid(&why)) return "camera_info rejected: " + why;
+  return "";
+}
+
+std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio) {
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(gray, mean, stddev);
+  const double saturated = double(cv::countNonZero(gray >= 255)) / double(gray.total());
+  if (saturated > max_saturated_ratio)
+    return "saturated frame: " + std::to_string(int(100.0 * saturated)) + " % of the pixels at 255";
+  if (stddev[0] < min_stddev)
+    return std::string(mean[0] < 10.0 ? "black" : "blank") + " frame: grey-level mean " +
+           std::to_string(mean[0]) + ", stddev " + std::to_string(stddev[0]) + " (no texture to track)";
+  return "";
+}
+
+VoStatus toVoStatus(const FrameResult& r, const std_msgs::Header& header) {
+  VoStatus s;
+  s.header = header;
+  s.state = static_cast<uint8_t>(r.state);
+  s.state_name = toString(r.state);
+  s.motion_model = static_cast<uint8_t>(r.motion);
+  s.processed = r.processed;
+  s.is_keyframe = r.is_keyframe;
+  s.num_features_detected = static_cast<uint32_t>(std::max(0, r.num_new_features));
+  s.num_features_tracked = static_cast<uint32_t>(std::max(0, r.num_tracked));
+  s.num_inliers = static_cast<uint32_t>(std::max(0, r.num_inliers));
+  s.num_map_points = static_cast<uint32_t>(std::max(0, r.num_map_points));
+  s.num_keyframes = static_cast<uint32_t>(std::max(0, r.num_keyframes));
+  s.tracking_ms = static_cast<float>(r.times.tracking_ms);
+  s.motion_ms = static_cast<float>(r.times.motion_ms);
+  s.mapping_ms = static_cast<float>(r.times.mapping_ms);
+  s.ba_ms = static_cast<float>(r.times.ba_ms);
+  s.total_ms = static_cast<float>(r.times.total_ms);
+  s.scale_confidence = static_cast<float>(r.scale_confidence);
+  s.message = r.message;
+  return s;
+}
+
+VoStatus badInputStatus(const std::string& why, const std_msgs::Header& header) {
+  VoStatus s;
+  s.header = header;
+  s.state = VoStatus::STATE_BAD_INPUT;
+  s.state_name = "bad_input";
+  s.processed = false;
+  s.message = why;
+  return s;
+}
+
+nav_msgs::Odometry toOdometry(const FrameResult& result, const Pose& T_world_child, const Pose& T_world_prev,
+                              double dt_s, const std_msgs::Header& header, const std::string& child_frame_id,
+                              const OdometrySigma& sigma) {
+  nav_msgs::Odometry odom;
+  odom.header = header;
+  odom.child_frame_id = child_frame_id;
+  odom.pose.pose = toPoseMsg(T_world_child);
+  double factor = sigma.lost_factor;
+  if (result.hasPoseEstimate())
+    factor = std::sqrt(double(sigma.reference_inliers) / double(std::max(1, result.num_inliers)));
+  const double var_p = std::pow(sigma.position_m * factor, 2),
+               var_r = std::pow(sigma.orientation_rad * factor, 2);
+  for (int i = 0; i < 3; ++i) {
+    odom.pose.covariance[i * 7] = var_p;
+    odom.pose.covariance[(i + 3) * 7] = var_r;
+  }
+  if (dt_s > 0.0) {
+    // Body-frame twist: T_prev_child = T_world_prev^-1 T_world_child over dt, expressed in the child frame.
+    const Pose T_prev_child = T_world_prev.inverse() * T_world_child;
+    const Eigen::Vector3d v_child = T_world_child.rotation().transpose() *
+                                    (T_world_child.translation() - T_world_prev.translation()) / dt_s;
+    const Eigen::AngleAxisd aa(T_prev_child.rotation());
+    const Eigen::Vector3d w_child = aa.axis() * aa.angle() / dt_s;
+    odom.twist.twist.linear.x = v_child.x();
+    odom.twist.twist.linear.y = v_child.y();
+    odom.twist.twist.linear.z = v_child.z();
+    odom.twist.twist.angular.x = w_child.x();
+    odom.twist.twist.angular.y = w_child.y();
+    odom.twist.twist.angular.z = w_child.z();
+    for (int i = 0; i < 3; ++i) {
+      odom.twist.covariance[i * 7] = 2.0 * var_p / (dt_s * dt_s);
+      odom.twist.covariance[(i + 3) * 7] = 2.0 * var_r / (dt_s * dt_s);
+    }
+  } else {
+    for (int i = 0; i < 6; ++i) odom.twist.covariance[i * 7] = 1e6;  // unknown
+  }
+  return odom;
+}
+
+sensor_msgs::PointCloud2 toPointCloud(const std::vector<MapPointView>& points, const std_msgs::Header& header,
+                                      const Sim3Transform& S_frame_world) {
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header = header;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                                sensor_msgs::PointField::FLOAT32, "z", 1, sensor_msgs::PointField::FLOAT32,
+                                "observations", 1, sensor_msgs::PointField::UINT32);
+  modifier.resize(points.size());
+  cloud.height = 1;
+  cloud.width = static_cast<uint32_t>(points.size());
+  cloud.is_dense = true;
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  sensor_msgs::PointCloud2Iterator<uint32_t> n(cloud, "observations");
+  for (const MapPointView& p : points) {
+    const Eigen::Vector3d q = S_frame_world.transformPoint(p.p_world);
+    *x = static_cast<float>(q.x());
+    *y = static_cast<float>(q.y());
+    *z = static_cast<float>(q.z());
+    *n = static_cast<uint32_t>(std::max(0, p.num_observations));
+    ++x, ++y, ++z, ++n;
+  }
+  return cloud;
+}
+
+sensor_msgs::ImagePtr drawTracks(const cv::Mat& gray, const std::vector<FeatureTrack>& tracks,
+                                 const FrameResult& result, const std_msgs::Header& header) {
+  cv::Mat bgr;
+  cv::cvtColor(gray, bgr, cv::COLOR_GRAY2BGR);
+  const int radius = std::max(2, gray.cols / 256);
+  for (const FeatureTrack& t : tracks) {
+    const double age = std::min(1.0, t.age_frames / 20.0);
+    const cv::Scalar colour(0, 255 * age, 255 * (1.0 - age));
+    cv::line(bgr, t.prev_px, t.px, colour, 1, cv::LINE_AA);
+    cv::circle(bgr, t.px, radius, colour, -1, cv::LINE_AA);
+  }
+  const std::string text = std::string(toString(result.state)) + "  tracks " + std::to_string(tracks.size()) +
+                           "  inliers " + std::to_string(result.num_inliers);
+  const double font = std::max(0.4, gray.cols / 800.0);
+  cv::putText(bgr, text, cv::Point(8, int(20 * font / 0.5)), cv::FONT_HERSHEY_SIMPLEX, font,
+              cv::Scalar(0, 255, 255), 1, cv::LINE_AA);
+  return cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, bgr).toImageMsg();
+}
+
+}  // namespace planetary_vo::ros_io

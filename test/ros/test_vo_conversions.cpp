@@ -1,0 +1,190 @@
+/// Unit tests (no master) of the VO nodelet's free functions: image conversion to 8-bit gray, input checks,
+/// FrameResult -> VoStatus, odometry twist and covariance, map points -> PointCloud2.
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "planetary_vo/ros_io/conversions.h"
+#include "planetary_vo/ros_io/vo_conversions.h"
+
+namespace planetary_vo::ros_io {
+namespace {
+
+sensor_msgs::ImageConstPtr makeImage(const cv::Mat& m, const std::string& encoding) {
+  return cv_bridge::CvImage(std_msgs::Header(), encoding, m).toImageMsg();
+}
+
+cv::Mat ramp() {
+  cv::Mat gray(4, 6, CV_8UC1);
+  for (int i = 0; i < gray.rows * gray.cols; ++i) gray.data[i] = static_cast<uint8_t>(10 * i);
+  return gray;
+}
+
+TEST(VoConversions, EveryEncodingBecomesTheSameGray) {
+  const cv::Mat gray = ramp();
+  cv::Mat bgr, rgb, bgra, rgba, mono16, out;
+  cv::cvtColor(gray, bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(gray, rgb, cv::COLOR_GRAY2RGB);
+  cv::cvtColor(gray, bgra, cv::COLOR_GRAY2BGRA);
+  cv::cvtColor(gray, rgba, cv::COLOR_GRAY2RGBA);
+  gray.convertTo(mono16, CV_16U, 256.0);
+  const std::pair<cv::Mat, std::string> cases[] = {{gray, "mono8"}, {mono16, "mono16"}, {bgr, "bgr8"},
+                                                   {rgb, "rgb8"},   {bgra, "bgra8"},    {rgba, "rgba8"}};
+  for (const auto& [mat, encoding] : cases) {
+    std::string why;
+    const sensor_msgs::ImageConstPtr msg = makeImage(mat, encoding);  // mono8 output views its data
+    ASSERT_TRUE(toGray8(msg, &out, &why)) << encoding << ": " << why;
+    ASSERT_EQ(out.type(), CV_8UC1) << encoding;
+    EXPECT_EQ(cv::norm(out, gray, cv::NORM_INF), 0.0) << encoding;
+  }
+}
+
+TEST(VoConversions, ColourWeightsAreBt601) {
+  cv::Mat rgb(1, 1, CV_8UC3, cv::Scalar(255, 0, 0));  // pure red in rgb8
+  cv::Mat out;
+  std::string why;
+  ASSERT_TRUE(toGray8(makeImage(rgb, "rgb8"), &out, &why));
+  EXPECT_NEAR(out.at<uint8_t>(0, 0), 0.299 * 255, 1.0);
+  ASSERT_TRUE(toGray8(makeImage(rgb, "bgr8"), &out, &why));  // the same bytes read as blue
+  EXPECT_NEAR(out.at<uint8_t>(0, 0), 0.114 * 255, 1.0);
+}
+
+TEST(VoConversions, Mono8IsShared) {
+  const sensor_msgs::ImageConstPtr msg = makeImage(ramp(), "mono8");
+  cv::Mat out;
+  std::string why;
+  ASSERT_TRUE(toGray8(msg, &out, &why));
+  EXPECT_EQ(static_cast<const void*>(out.data), static_cast<const void*>(msg->data.data()));
+}
+
+TEST(VoConversions, RejectsUnsupportedAndInconsistentImages) {
+  cv::Mat out;
+  std::string why;
+  EXPECT_FALSE(toGray8(makeImage(cv::Mat(4, 4, CV_32FC1, cv::Scalar(0.5)), "32FC1"), &out, &why));
+  EXPECT_NE(why.find("unsupported image encoding '32FC1'"), std::string::npos) << why;
+  sensor_msgs::ImagePtr truncated = cv_bridge::CvImage(std_msgs::Header(), "mono8", ramp()).toImageMsg();
+  truncated->data.resize(10);
+  EXPECT_FALSE(toGray8(truncated, &out, &why));
+  EXPECT_NE(why.find("does not hold"), std::string::npos) << why;
+  sensor_msgs::ImagePtr empty(new sensor_msgs::Image);
+  empty->encoding = "mono8";
+  EXPECT_FALSE(toGray8(empty, &out, &why));
+}
+
+TEST(VoConversions, CameraInfoChecks) {
+  const sensor_msgs::CameraInfo good = toCameraInfo(PinholeCamera(640, 480, 500, 500, 320, 240), {});
+  EXPECT_EQ(checkCameraInfo(good), "");
+  sensor_msgs::CameraInfo bad = good;
+  bad.K[4] = std::nan("");
+  EXPECT_NE(checkCameraInfo(bad).find("not finite"), std::string::npos);
+  bad = good;
+  bad.K.fill(0.0);
+  EXPECT_NE(checkCameraInfo(bad).find("zero"), std::string::npos);
+  bad = good;
+  bad.width = 0;
+  EXPECT_NE(checkCameraInfo(bad), "");
+  bad = good;
+  bad.distortion_model = "rational_polynomial";
+  bad.D.assign(8, 0.1);
+  EXPECT_NE(checkCameraInfo(bad).find("unsupported distortion"), std::string::npos);
+  sensor_msgs::CameraInfo fisheye = good;
+  fisheye.distortion_model = "equidistant";
+  fisheye.D = {0.1, 0.01, 0.0, 0.0};
+  EXPECT_EQ(checkCameraInfo(fisheye), "");
+}
+
+TEST(VoConversions, ExposureChecks) {
+  cv::Mat texture(64, 64, CV_8UC1);
+  cv::randu(texture, 0, 200);
+  EXPECT_EQ(checkExposure(texture, 2.0, 0.9), "");
+  EXPECT_NE(checkExposure(cv::Mat::zeros(64, 64, CV_8UC1), 2.0, 0.9).find("black"), std::string::npos);
+  EXPECT_NE(checkExposure(cv::Mat(64, 64, CV_8UC1, cv::Scalar(255)), 2.0, 0.9).find("saturated"),
+            std::string::npos);
+  EXPECT_NE(checkExposure(cv::Mat(64, 64, CV_8UC1, cv::Scalar(128)), 2.0, 0.9).find("blank"),
+            std::string::npos);
+}
+
+TEST(VoConversions, StatusMirrorsTheFrameResult) {
+  static_assert(VoStatus::STATE_INITIALISING == uint8_t(TrackingState::kInitialising));
+  static_assert(VoStatus::STATE_TRACKING == uint8_t(TrackingState::kTracking));
+  static_assert(VoStatus::STATE_LOST == uint8_t(TrackingState::kLost));
+  static_assert(VoStatus::STATE_RECOVERED == uint8_t(TrackingState::kRecovered));
+  static_assert(VoStatus::MODEL_PNP == uint8_t(MotionEstimate::kPnp));
+  static_assert(VoStatus::MODEL_HOMOGRAPHY == uint8_t(MotionEstimate::kHomography));
+  FrameResult r;
+  r.processed = true;
+  r.state = TrackingState::kRecovered;
+  r.motion = MotionEstimate::kPnp;
+  r.num_inliers = 42;
+  r.num_map_points = 700;
+  r.times.total_ms = 12.5;
+  r.message = "bridged";
+  const VoStatus s = toVoStatus(r, makeHeader(ros::Time(5, 0), "world"));
+  EXPECT_EQ(s.state, VoStatus::STATE_RECOVERED);
+  EXPECT_EQ(s.state_name, "recovered");
+  EXPECT_EQ(s.motion_model, VoStatus::MODEL_PNP);
+  EXPECT_EQ(s.num_inliers, 42u);
+  EXPECT_EQ(s.num_map_points, 700u);
+  EXPECT_FLOAT_EQ(s.total_ms, 12.5f);
+  EXPECT_EQ(s.message, "bridged");
+  EXPECT_EQ(s.header.stamp, ros::Time(5, 0));
+  const VoStatus bad = badInputStatus("black frame", {});
+  EXPECT_EQ(bad.state, VoStatus::STATE_BAD_INPUT);
+  EXPECT_FALSE(bad.processed);
+}
+
+TEST(VoConversions, OdometryTwistIsInTheChildFrame) {
+  FrameResult r;
+  r.processed = true;
+  r.state = TrackingState::kTracking;
+  r.num_inliers = 100;
+  Pose prev = Pose::Identity();
+  prev.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Pose cur = prev;
+  cur.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);  // 1 m along world x in 0.5 s
+  cur.linear() = Eigen::AngleAxisd(M_PI / 2 + 0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const OdometrySigma sigma{0.1, 0.01, 100.0, 100};
+  const nav_msgs::Odometry o =
+      toOdometry(r, cur, prev, 0.5, makeHeader(ros::Time(1, 0), "world"), "cam", sigma);
+  EXPECT_EQ(o.child_frame_id, "cam");
+  const Eigen::Vector3d v_child = cur.rotation().transpose() * Eigen::Vector3d(2.0, 0.0, 0.0);
+  EXPECT_NEAR(o.twist.twist.linear.x, v_child.x(), 1e-9);
+  EXPECT_NEAR(o.twist.twist.linear.y, v_child.y(), 1e-9);
+  EXPECT_NEAR(o.twist.twist.angular.z, 0.2, 1e-9);
+  EXPECT_NEAR(o.pose.covariance[0], 0.01, 1e-12);  // (0.1 m)^2 with the reference inlier count
+  r.state = TrackingState::kLost;
+  const nav_msgs::Odometry lost = toOdometry(r, cur, prev, 0.5, {}, "cam", sigma);
+  EXPECT_NEAR(lost.pose.covariance[0], 100.0, 1e-9);  // (0.1 m x 100)^2
+  const nav_msgs::Odometry first = toOdometry(r, cur, prev, 0.0, {}, "cam", sigma);
+  EXPECT_EQ(first.twist.twist.linear.x, 0.0);
+}
+
+TEST(VoConversions, PointCloudHasXyzAndObservations) {
+  std::vector<MapPointView> points(2);
+  points[0].p_world = Eigen::Vector3d(1, 2, 3);
+  points[0].num_observations = 4;
+  points[1].p_world = Eigen::Vector3d(-1, 0, 5);
+  points[1].num_observations = 2;
+  Sim3Transform S;
+  S.scale = 2.0;
+  S.t_gt_est_m = Eigen::Vector3d(0, 0, 1);
+  const sensor_msgs::PointCloud2 cloud = toPointCloud(points, makeHeader(ros::Time(1, 0), "world"), S);
+  ASSERT_EQ(cloud.width, 2u);
+  ASSERT_EQ(cloud.fields.size(), 4u);
+  sensor_msgs::PointCloud2ConstIterator<float> x(cloud, "x"), z(cloud, "z");
+  sensor_msgs::PointCloud2ConstIterator<uint32_t> n(cloud, "observations");
+  EXPECT_FLOAT_EQ(*x, 2.0f);
+  EXPECT_FLOAT_EQ(*z, 7.0f);
+  EXPECT_EQ(*n, 4u);
+  ++n;
+  EXPECT_EQ(*n, 2u);
+}
+
+}  // namespace
+}  // namespace planetary_vo::ros_io

@@ -1,0 +1,168 @@
+/// gtest node of the VO end-to-end rostests (vo_end_to_end.test: player node; vo_bag.test: rosbag play of a
+/// bag written by `player --bag`). Collects vo/pose, vo/status, vo/map_points and ground_truth/pose while a
+/// rendered Lunar sequence streams through the VO nodelet, then checks the accuracy after Sim(3) alignment,
+/// the map, the tf world -> camera and the status stream.
+///
+/// Private parameters:
+///   ~dataset (string)            the rendered dataset the stream comes from (image count and stamps)
+///   ~live (bool, true)           the player runs with ~start_paused: wait until the nodelet and this node
+///   are
+///                                connected, then call /player/resume
+///   ~max_ate_percent (double, 5) bound on the ATE RMSE in percent of the ground-truth path length
+///   ~world_frame, ~camera_frame  frames of the tf lookup ("world", "camera_optical")
+///   ~timeout (double, 120)       seconds to wait for the whole stream
+
+#include <cmath>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <geometry_msgs/PoseStamped.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "planetary_vo/VoStatus.h"
+#include "planetary_vo/dataset/dataset.h"
+#include "planetary_vo/eval/trajectory_metrics.h"
+#include "planetary_vo/ros_io/conversions.h"
+#include "test_ros_helpers.h"
+
+namespace planetary_vo::ros_io {
+namespace {
+
+class VoEndToEndTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ros::NodeHandle pnh("~");
+    ASSERT_TRUE(pnh.getParam("dataset", dataset_dir_));
+    live_ = pnh.param("live", true);
+    max_ate_percent_ = pnh.param("max_ate_percent", 5.0);
+    world_frame_ = pnh.param<std::string>("world_frame", "world");
+    camera_frame_ = pnh.param<std::string>("camera_frame", "camera_optical");
+    timeout_s_ = pnh.param("timeout", 120.0);
+    dataset_ = std::make_unique<Dataset>(Dataset::open(dataset_dir_));
+    subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoEndToEndTest::onPose, this));
+    subs_.push_back(nh_.subscribe("vo/status", 1000, &VoEndToEndTest::onStatus, this));
+    subs_.push_back(nh_.subscribe("vo/map_points", 10, &VoEndToEndTest::onMap, this));
+    subs_.push_back(nh_.subscribe("ground_truth/pose", 1000, &VoEndToEndTest::onGroundTruth, this));
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
+  }
+
+  void onPose(const geometry_msgs::PoseStampedConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    poses_.push_back(*m);
+  }
+  void onStatus(const VoStatusConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!m->header.stamp.isZero()) statuses_.push_back(*m);  // zero stamp: the watchdog's "no input" status
+  }
+  void onMap(const sensor_msgs::PointCloud2ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    max_map_points_ = std::max<size_t>(max_map_points_, m->width * m->height);
+    map_fields_ = m->fields.size();
+  }
+  void onGroundTruth(const geometry_msgs::PoseStampedConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ground_truth_.push_back(*m);
+  }
+
+  /// True once the status of the last image of the dataset arrived.
+  bool streamDone() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (ground_truth_.size() < dataset_->size()) return false;
+    const ros::Time last = ground_truth_.back().header.stamp;
+    return !statuses_.empty() && statuses_.back().header.stamp >= last;
+  }
+
+  ros::NodeHandle nh_;
+  std::string dataset_dir_, world_frame_, camera_frame_;
+  bool live_ = true;
+  double max_ate_percent_ = 5.0, timeout_s_ = 120.0;
+  std::unique_ptr<Dataset> dataset_;
+  std::vector<ros::Subscriber> subs_;
+  tf2_ros::Buffer tf_buffer_{ros::Duration(600.0)};
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::mutex mutex_;
+  std::vector<geometry_msgs::PoseStamped> poses_, ground_truth_;
+  std::vector<VoStatus> statuses_;
+  size_t max_map_points_ = 0, map_fields_ = 0;
+};
+
+TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
+  if (live_) {
+    // Start the paused player once the nodelet subscribes to the camera and this node to its outputs.
+    ASSERT_TRUE(waitFor([&] { return topicHasSubscriber("/camera/image_raw") && allConnected(subs_); }, 30.0))
+        << "the nodelet did not subscribe to /camera/image_raw";
+    std_srvs::Trigger resume;
+    ASSERT_TRUE(ros::service::waitForService("/player/resume", ros::Duration(30.0)));
+    ASSERT_TRUE(ros::service::call("/player/resume", resume));
+  }
+  ASSERT_TRUE(waitFor([&] { return streamDone(); }, timeout_s_))
+      << "stream incomplete: " << ground_truth_.size() << " ground-truth poses, " << statuses_.size()
+      << " statuses of " << dataset_->size() << " images";
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  // Status: one per image, stamped with the image stamp, none rejected as bad input.
+  std::set<ros::Time> image_stamps;
+  for (const auto& gt : ground_truth_) image_stamps.insert(gt.header.stamp);
+  std::set<ros::Time> tracked;
+  for (const VoStatus& s : statuses_) {
+    EXPECT_TRUE(image_stamps.count(s.header.stamp)) << "status stamp is not an image stamp";
+    EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+    if (s.state == VoStatus::STATE_TRACKING || s.state == VoStatus::STATE_RECOVERED)
+      tracked.insert(s.header.stamp);
+  }
+  EXPECT_GE(statuses_.size(), dataset_->size() * 9 / 10);
+  EXPECT_GE(tracked.size(), dataset_->size() / 2) << "the pipeline tracked too few frames";
+  EXPECT_GT(statuses_.back().num_imu_msgs + statuses_.back().num_altimeter_msgs, 0u)
+      << "imu / altimeter not counted";
+
+  // Accuracy: vo/pose of tracked frames against the ground truth, Sim(3)-aligned.
+  Trajectory estimate, ground_truth;
+  for (const auto& p : poses_) {
+    const Pose T = fromPoseMsg(p.pose);
+    ASSERT_TRUE(T.matrix().allFinite()) << "NaN pose at " << p.header.stamp;
+    EXPECT_EQ(p.header.frame_id, world_frame_);
+    if (tracked.count(p.header.stamp)) estimate.push_back({p.header.stamp.toSec(), T});
+  }
+  for (const auto& g : ground_truth_) ground_truth.push_back({g.header.stamp.toSec(), fromPoseMsg(g.pose)});
+  EvaluationOptions options;
+  options.max_dt_s = 1e-3;
+  const TrajectoryEvaluation eval = evaluateTrajectory(ground_truth, estimate, options);
+  std::printf("end-to-end: %zu images, %zu tracked, ATE RMSE %.3f m = %.2f %% of %.1f m path, scale %.3f\n",
+              dataset_->size(), estimate.size(), eval.ate_m.rmse, eval.ate_rmse_percent,
+              eval.gt_path_length_m, eval.alignment.scale);
+  EXPECT_LT(eval.ate_rmse_percent, max_ate_percent_);
+  EXPECT_GE(eval.num_associated, dataset_->size() / 2);
+
+  // Map: x y z + observation count, not empty.
+  EXPECT_GT(max_map_points_, 0u);
+  EXPECT_EQ(map_fields_, 4u);
+
+  // tf world -> camera at the last pose's stamp equals that pose.
+  const geometry_msgs::PoseStamped& last = poses_.back();
+  geometry_msgs::TransformStamped tf;
+  ASSERT_NO_THROW(
+      tf = tf_buffer_.lookupTransform(world_frame_, camera_frame_, last.header.stamp, ros::Duration(5.0)));
+  EXPECT_NEAR(tf.transform.translation.x, last.pose.position.x, 1e-9);
+  EXPECT_NEAR(tf.transform.translation.z, last.pose.position.z, 1e-9);
+}
+
+}  // namespace
+}  // namespace planetary_vo::ros_io
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_vo_node");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  ros::shutdown();
+  return rc;
+}
