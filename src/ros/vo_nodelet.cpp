@@ -74,7 +74,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     VoReconfigureConfig knobs;
     knobs.num_features = config_.detector.num_features;
     knobs.motion_model = toString(config_.motion.model);
-    knobs.bundle_adjustment = config_.bundle_adjustment.enabled;
+    knobs.bundle_adjustment_enabled = config_.bundle_adjustment.enabled;
     reconfigure_->updateConfig(knobs);
     reconfigure_->setCallback(
         [this](VoReconfigureConfig& knobs, uint32_t level) { reconfigureCb(knobs, level); });
@@ -264,7 +264,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   void reconfigureCb(VoReconfigureConfig& knobs, uint32_t /*level*/) {
     VoConfig next = config_;
     next.detector.num_features = knobs.num_features;
-    next.bundle_adjustment.enabled = knobs.bundle_adjustment;
+    next.bundle_adjustment.enabled = knobs.bundle_adjustment_enabled;
     for (MotionModel m :
          {MotionModel::kAuto, MotionModel::kEssential, MotionModel::kFundamental, MotionModel::kHomography})
       if (knobs.motion_model == toString(m)) next.motion.model = m;
