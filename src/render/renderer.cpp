@@ -20,6 +20,9 @@ namespace {
 constexpr double kBaseSpacing = 1.0 / 64.0;  // lattice spacing of level 0 (m)
 constexpr int kChunk = 64;                   // samples per chunk side
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kBlockShift = 3;  // blocks of 8x8 lattice cells for the empty-space bound
+constexpr int kBlock = 1 << kBlockShift;
+constexpr float kNoBound = std::numeric_limits<float>::infinity();
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
@@ -48,13 +51,19 @@ struct Chunk {
 /// One LOD level of the current frame: a dense window of the global lattice of spacing s.
 struct Level {
   int k = 0;
-  double s = 1.0;
+  double s = 1.0, inv_s = 1.0;
   int64_t i0 = 0, j0 = 0;  // global lattice index of sample (0, 0)
   int nx = 0, ny = 0;
   std::vector<float> h, a, sh;  // height, albedo, shadow-top height
+  // Upper bound of the frame surface over each kBlock x kBlock-cell block of this level's global lattice
+  // (block b covers lattice indices [kBlock b, kBlock b + kBlock]), valid wherever floor(lod) is this level:
+  // lets primary rays skip whole blocks they pass above (conservative empty-space skipping).
+  int64_t bx0 = 0, by0 = 0;
+  int nbx = 0, nby = 0;
+  std::vector<float> bound;
 
   bool locate(double x, double y, int* idx, double* fu, double* fv) const {
-    const double u = x / s - static_cast<double>(i0), v = y / s - static_cast<double>(j0);
+    const double u = x * inv_s - static_cast<double>(i0), v = y * inv_s - static_cast<double>(j0);
     if (!(u >= 0.0 && v >= 0.0 && u < nx - 1 && v < ny - 1)) return false;
     const int iu = static_cast<int>(u), iv = static_cast<int>(v);
     *idx = iv * nx + iu;
@@ -88,13 +97,13 @@ struct Renderer::Impl {
   Eigen::Vector3d cam = Eigen::Vector3d::Zero();
   double ifov = 1.0, z_ref = 0.0, dz2 = 0.0;
   double lipschitz = 1.0, zhi = 0.0, zlo = 0.0;
-  double bias = 0.0;
+  double bias = 0.0, lod_offset = 0.0;
 
   /// Continuous LOD of the ground point (x, y): log2 of the pixel footprint there, in lattice levels.
   double lodAt(double x, double y) const {
     const double dx = x - cam.x(), dy = y - cam.y();
-    const double dist = std::sqrt(dx * dx + dy * dy + dz2);
-    const double l = std::log2(dist * ifov / kBaseSpacing) + bias;
+    // log2(distance * ifov / base) + bias, without the square root (this runs once per ray step).
+    const double l = 0.5 * std::log2(dx * dx + dy * dy + dz2) + lod_offset;
     return std::clamp(l, static_cast<double>(kmin), static_cast<double>(kmax));
   }
 
@@ -120,6 +129,10 @@ struct Renderer::Impl {
   }
   double height(double x, double y) const { return field(0, x, y, lodAt(x, y)); }
 
+  // Horizontal distance from the camera at which floor(lod) reaches level index i (radius_to_level[i]).
+  std::vector<double> radius_to_level;
+
+  void buildBlockBounds();
   void setupFrame(const Pose& T, RenderStats* stats);
   void bakeLevels(RenderStats* stats);
   void sweepShadows();
@@ -131,6 +144,7 @@ void Renderer::Impl::setupFrame(const Pose& T, RenderStats* stats) {
   cam = T.translation();
   ifov = 1.0 / camera.fx();
   bias = settings.lod_bias;
+  lod_offset = std::log2(ifov / kBaseSpacing) + bias;
   const LunarTerrain& ter = *terrain;
   // Procedural relief bounds: crater floors go down ~0.2 D, rims and blocks rise ~0.05 D, plus roughness.
   const double relief_down = ter.maxProceduralReliefM();
@@ -208,6 +222,7 @@ void Renderer::Impl::setupFrame(const Pose& T, RenderStats* stats) {
     Level& L = levels[k - kmin];
     L.k = k;
     L.s = kBaseSpacing * std::ldexp(1.0, k);
+    L.inv_s = 1.0 / L.s;  // exact: a power of two
     const bool covers_extension = k >= k_ext || k == kmax;
     double x0 = covers_extension ? ex0 : bx0, x1 = covers_extension ? ex1 : bx1;
     double y0 = covers_extension ? ey0 : by0, y1 = covers_extension ? ey1 : by1;
@@ -230,6 +245,13 @@ void Renderer::Impl::setupFrame(const Pose& T, RenderStats* stats) {
                                std::to_string(L.ny) + " samples); raise lod_bias or lower the resolution");
   }
   stats->levels = static_cast<int>(levels.size());
+  // floor(lod) = k from distance base * 2^(k - bias) / ifov on (lodAt's metric includes the height dz).
+  radius_to_level.assign(levels.size() + 1, std::numeric_limits<double>::infinity());
+  for (size_t i = 1; i < levels.size(); ++i) {
+    const double dist =
+        kBaseSpacing * std::exp2(static_cast<double>(kmin + static_cast<int>(i)) - bias) / ifov;
+    radius_to_level[i] = std::sqrt(std::max(0.0, dist * dist - dz2));
+  }
 }
 
 void Renderer::Impl::bakeLevels(RenderStats* stats) {
@@ -252,6 +274,7 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
         if (inserted) missing.push_back(needs.back());
       }
   }
+  auto t_bake = Clock::now();
   parallelFor(static_cast<int>(missing.size()), threads, [&](int m) {
     const Need& n = missing[m];
     const double s = kBaseSpacing * std::ldexp(1.0, n.k);
@@ -260,6 +283,7 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
     c.albedo.resize(kChunk * kChunk);
     ter.sampleGrid(n.ci * kChunk, n.cj * kChunk, kChunk, kChunk, s, s, c.height.data(), c.albedo.data());
   });
+  stats->bake_ms = msSince(t_bake);
   stats->chunks_baked = static_cast<int>(missing.size());
   stats->chunks_used = static_cast<int>(needs.size());
 
@@ -318,6 +342,63 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
   }
   lipschitz = 1.1 * (slope + (morph + 0.1) / (std::log(2.0) * std::sqrt(dz2))) + 1e-3;
   zhi = hmax, zlo = hmin;
+  stats->lipschitz = lipschitz;
+}
+
+void Renderer::Impl::buildBlockBounds() {
+  // Per level: max of the lattice heights over each block (the bilinear surface never exceeds its corners).
+  const int nl = static_cast<int>(levels.size());
+  parallelFor(nl, threads, [&](int li) {
+    Level& L = levels[li];
+    L.bx0 = L.i0 >> kBlockShift, L.by0 = L.j0 >> kBlockShift;  // arithmetic shift = floor division
+    L.nbx = static_cast<int>(((L.i0 + L.nx - 1) >> kBlockShift) - L.bx0 + 1);
+    L.nby = static_cast<int>(((L.j0 + L.ny - 1) >> kBlockShift) - L.by0 + 1);
+    L.bound.assign(static_cast<size_t>(L.nbx) * L.nby, -kNoBound);
+    for (int j = 0; j < L.ny; ++j) {
+      // Sample (i, j) is a corner of blocks floor(g / 8) and, on a block edge, floor((g - 1) / 8).
+      const int64_t gj = L.j0 + j;
+      for (int64_t bj = (gj - 1) >> kBlockShift; bj <= gj >> kBlockShift; ++bj) {
+        if (bj < L.by0 || bj >= L.by0 + L.nby) continue;
+        float* row = &L.bound[(bj - L.by0) * L.nbx];
+        const float* h = &L.h[static_cast<size_t>(j) * L.nx];
+        for (int i = 0; i < L.nx; ++i) {
+          const int64_t gi = L.i0 + i;
+          const int64_t b1 = (gi >> kBlockShift) - L.bx0, b0 = ((gi - 1) >> kBlockShift) - L.bx0;
+          if (b1 < L.nbx) row[b1] = std::max(row[b1], h[i]);
+          if (b0 >= 0 && b0 != b1) row[b0] = std::max(row[b0], h[i]);
+        }
+      }
+    }
+  });
+  // A point whose floor(lod) is level li blends li with li + 1 (raw maxima suffice when the block lies inside
+  // li's window: li + 1 is then used where it exists, else ignored); near the window edge it may fall back
+  // to li + 1 alone and beyond, which li + 1's own final bound covers. The coarsest level has nothing to fall
+  // back to (the ray leaves the terrain there): no skipping over its partial blocks.
+  std::vector<std::vector<float>> raw(nl);
+  for (int li = 0; li < nl; ++li) raw[li] = levels[li].bound;
+  for (int li = nl - 1; li >= 0; --li) {
+    Level& L = levels[li];
+    const Level* C = li + 1 < nl ? &levels[li + 1] : nullptr;
+    for (int bj = 0; bj < L.nby; ++bj)
+      for (int bi = 0; bi < L.nbx; ++bi) {
+        const int64_t gbi = L.bx0 + bi, gbj = L.by0 + bj;
+        const bool inside = (gbi << kBlockShift) >= L.i0 && (gbj << kBlockShift) >= L.j0 &&
+                            ((gbi + 1) << kBlockShift) <= L.i0 + L.nx - 1 &&
+                            ((gbj + 1) << kBlockShift) <= L.j0 + L.ny - 1;
+        float& out = L.bound[bj * L.nbx + bi];
+        const float own = raw[li][bj * L.nbx + bi];
+        if (!C) {
+          out = inside ? own : kNoBound;
+          continue;
+        }
+        const int64_t pi = (gbi >> 1) - C->bx0, pj = (gbj >> 1) - C->by0;
+        const bool parent_ok = pi >= 0 && pj >= 0 && pi < C->nbx && pj < C->nby;
+        if (inside)
+          out = std::max(own, parent_ok ? raw[li + 1][pj * C->nbx + pi] : -kNoBound);
+        else
+          out = std::max(own, parent_ok ? C->bound[pj * C->nbx + pi] : kNoBound);
+      }
+  }
 }
 
 void Renderer::Impl::sweepShadows() {
@@ -445,15 +526,42 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
             hit = true;
             break;
           }
-          // Safe step: the surface cannot rise faster than the Lipschitz bound; up to 4x longer steps are
+          // Safe step: the surface cannot rise faster than the Lipschitz bound; up to 16x longer steps are
           // allowed while they move less than half a lattice cell sideways (a crossing is then caught by the
-          // bracket).
+          // bracket). The global bound is loose (steep boulders somewhere in the frame), so near the surface
+          // the pure safe step would converge geometrically; the longer step brackets the crossing at once.
           const double safe = g / denom;
           const double s_local = kBaseSpacing * std::exp2(std::floor(l));
           const double step =
-              std::max(safe, std::min(4.0 * safe, dxy > 1e-9 ? 0.5 * s_local / dxy : 4.0 * safe));
+              std::max(safe, std::min(16.0 * safe, dxy > 1e-9 ? 0.5 * s_local / dxy : 16.0 * safe));
+          // Empty-space skipping: if the ray stays above the bound of the current block up to where it
+          // leaves the block (or floor(lod) changes), it may jump there when that is farther than the safe
+          // step. Exact: the bound is >= the surface everywhere on that segment.
+          double skip_to = 0.0;
+          // Near the surface the safe step already crosses the block: do not pay for the test there.
+          if (step * dxy < levels[std::min(static_cast<int>(l), kmax) - kmin].s * kBlock) {
+            int li = std::min(static_cast<int>(l), kmax) - kmin;
+            const Level& L = levels[li];
+            const int64_t gbi = static_cast<int64_t>(std::floor(p.x() * L.inv_s)) >> kBlockShift;
+            const int64_t gbj = static_cast<int64_t>(std::floor(p.y() * L.inv_s)) >> kBlockShift;
+            const int64_t bi = gbi - L.bx0, bj = gbj - L.by0;
+            if (bi >= 0 && bj >= 0 && bi < L.nbx && bj < L.nby) {
+              const double bound = L.bound[bj * L.nbx + bi];
+              const double size = L.s * kBlock;
+              double t_seg = std::numeric_limits<double>::infinity();
+              if (d.x() > 1e-12) t_seg = std::min(t_seg, ((gbi + 1) * size - cam.x()) / d.x());
+              if (d.x() < -1e-12) t_seg = std::min(t_seg, (gbi * size - cam.x()) / d.x());
+              if (d.y() > 1e-12) t_seg = std::min(t_seg, ((gbj + 1) * size - cam.y()) / d.y());
+              if (d.y() < -1e-12) t_seg = std::min(t_seg, (gbj * size - cam.y()) / d.y());
+              if (dxy > 1e-12) t_seg = std::min(t_seg, radius_to_level[li + 1] / dxy);
+              const double z_min = std::min(p.z(), cam.z() + t_seg * d.z());
+              if (std::isfinite(t_seg) && t_seg > t && z_min > bound + 1e-3) {
+                skip_to = t_seg + 1e-5;  // just into the next block (the 1 mm margin covers the overshoot)
+              }
+            }
+          }
           t_prev = t, g_prev = g;
-          t += step;
+          t = std::max(t + step, skip_to);
         }
       }
       if (hit) {
@@ -511,8 +619,11 @@ RenderOutput Renderer::render(const Pose& T_world_cam, uint64_t frame_index) {
   RenderOutput out;
   auto t0 = Clock::now();
   impl_->setupFrame(T_world_cam, &out.stats);
+  out.stats.region_ms = msSince(t0);
   impl_->bakeLevels(&out.stats);
+  impl_->buildBlockBounds();
   out.stats.setup_ms = msSince(t0);
+  out.stats.assemble_ms = out.stats.setup_ms - out.stats.region_ms - out.stats.bake_ms;
   t0 = Clock::now();
   impl_->sweepShadows();
   out.stats.shadow_ms = msSince(t0);

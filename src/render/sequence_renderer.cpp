@@ -89,6 +89,17 @@ size_t countImages(const std::string& dir) {
 
 }  // namespace
 
+std::string formatStats(size_t frame, const RenderStats& st) {
+  char buf[320];
+  std::snprintf(
+      buf, sizeof(buf),
+      "frame %zu: %.0f ms = region %.1f + bake %.0f (%d/%d chunks) + assemble %.0f + shadows %.0f + "
+      "trace %.0f ms (%d levels, %.1f steps/ray, slope bound %.2f)",
+      frame, st.setup_ms + st.shadow_ms + st.trace_ms, st.region_ms, st.bake_ms, st.chunks_baked,
+      st.chunks_used, st.assemble_ms, st.shadow_ms, st.trace_ms, st.levels, st.mean_ray_steps, st.lipschitz);
+  return buf;
+}
+
 SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progress) {
   if (o.output_dir.empty()) throw std::invalid_argument("no output directory");
   SequenceResult result;
@@ -117,6 +128,7 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
       const double t = static_cast<double>(i) / o.rate_hz;
       const Pose T = setup.trajectory.state(t).T_world_cam();
       const RenderOutput out = renderer.render(T, i);
+      if (o.verbose) std::fprintf(stderr, "%s\n", formatStats(i, out.stats).c_str());
       writer.addFrame(t, out.image, T);
       if (o.save_depth) {
         char name[64];

@@ -48,13 +48,17 @@ struct RenderSettings {
 };
 
 struct RenderStats {
-  double setup_ms = 0.0;   ///< region, chunk baking, level assembly
-  double shadow_ms = 0.0;  ///< horizon sweeps
-  double trace_ms = 0.0;   ///< ray casting and shading
-  int chunks_baked = 0;    ///< chunks evaluated procedurally for this frame (not from the cache)
+  double setup_ms = 0.0;     ///< region, chunk baking, level assembly (sum of the next three)
+  double region_ms = 0.0;    ///< view footprint and LOD levels
+  double bake_ms = 0.0;      ///< procedural evaluation of the chunks missing from the cache
+  double assemble_ms = 0.0;  ///< level windows from chunks, Lipschitz bound
+  double shadow_ms = 0.0;    ///< horizon sweeps
+  double trace_ms = 0.0;     ///< ray casting and shading
+  int chunks_baked = 0;      ///< chunks evaluated procedurally for this frame (not from the cache)
   int chunks_used = 0;
   int levels = 0;
   double mean_ray_steps = 0.0;
+  double lipschitz = 0.0;  ///< slope bound of the frame surface used by the ray march
 };
 
 struct RenderOutput {

@@ -37,6 +37,7 @@ struct SequenceOptions {
   bool save_depth = false;  ///< depth/NNNNNN.tiff (32-bit float z-depth in m)
   bool force = false;       ///< render even if a complete identical render exists
   int num_threads = 0;
+  bool verbose = false;  ///< per-frame timing of every render phase on stderr (not part of the hash)
 };
 
 struct SequenceResult {
@@ -74,6 +75,9 @@ constexpr double kAltimeterLodM = 0.05;
 
 /// Renders (or skips if cached) the sequence. `progress` may be empty.
 SequenceResult renderSequence(const SequenceOptions& options, const ProgressFn& progress = {});
+
+/// One line of per-phase timings of a rendered frame (for --verbose and profiling).
+std::string formatStats(size_t frame, const RenderStats& stats);
 
 /// A stderr progress bar with rate and ETA, redrawn at most 4 times per second.
 ProgressFn makeProgressBar();

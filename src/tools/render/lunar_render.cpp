@@ -1,8 +1,7 @@
 /// lunar_render: renders the synthetic Lunar descent sequences (docs/rendering.md).
 ///   lunar_render --sequence NAME --output DIR [--width W --height H --rate HZ --duration S --seed N
 ///                --dem FILE.yaml --sun-elevation DEG --sun-azimuth DEG --noise SIGMA --depth --force
-///                --progress
-///                --threads N]
+///                --progress --verbose --threads N]
 ///   lunar_render --sequence NAME --snapshot T --output FILE.png [same options]   one frame at time T
 ///   lunar_render --list
 
@@ -23,10 +22,11 @@ namespace {
 
 int usage(const char* msg) {
   if (msg) std::cerr << "lunar_render: " << msg << "\n";
-  std::cerr << "usage: lunar_render --sequence NAME --output DIR [--width W] [--height H] [--rate HZ] "
-               "[--duration S] [--seed N] [--dem FILE.yaml|NAME] [--sun-elevation DEG] [--sun-azimuth DEG] "
-               "[--noise SIGMA_DN] [--depth] [--force] [--progress] [--threads N] [--snapshot T]\n"
-               "       lunar_render --list\n";
+  std::cerr
+      << "usage: lunar_render --sequence NAME --output DIR [--width W] [--height H] [--rate HZ] "
+         "[--duration S] [--seed N] [--dem FILE.yaml|NAME] [--sun-elevation DEG] [--sun-azimuth DEG] "
+         "[--noise SIGMA_DN] [--depth] [--force] [--progress] [--verbose] [--threads N] [--snapshot T]\n"
+         "       lunar_render --list\n";
   return 2;
 }
 
@@ -79,6 +79,8 @@ int main(int argc, char** argv) {
         o.save_depth = true;
       else if (a == "--force")
         o.force = true;
+      else if (a == "--verbose")
+        o.verbose = true;
       else if (a == "--progress")
         progress = true;
       else if (a == "--no-progress")
@@ -105,11 +107,8 @@ int main(int argc, char** argv) {
       Renderer renderer(setup.terrain, setup.settings);
       const RenderOutput out = renderer.render(setup.trajectory.state(snapshot).T_world_cam());
       if (!cv::imwrite(o.output_dir, out.image)) throw std::runtime_error("cannot write " + o.output_dir);
-      std::cerr << "rendered " << o.width << "x" << o.height << " t=" << snapshot << " s in "
-                << out.stats.setup_ms + out.stats.shadow_ms + out.stats.trace_ms << " ms (setup "
-                << out.stats.setup_ms << ", shadows " << out.stats.shadow_ms << ", trace "
-                << out.stats.trace_ms << ", " << out.stats.levels << " LOD levels, " << out.stats.chunks_baked
-                << " chunks baked, " << out.stats.mean_ray_steps << " steps/ray)\n";
+      std::cerr << "rendered " << o.width << "x" << o.height << " t=" << snapshot
+                << " s: " << formatStats(0, out.stats) << "\n";
       return 0;
     }
     const SequenceResult r = renderSequence(o, progress ? makeProgressBar() : ProgressFn());
