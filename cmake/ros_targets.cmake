@@ -9,11 +9,14 @@
 #   trajectory_recorder    PoseStamped topic -> TUM file
 
 # Packages of the VO nodelet that the top-level find_package(catkin COMPONENTS ...) does not list.
+# (They belong in its catkin_package(CATKIN_DEPENDS) too, which catkin_lint asks for dynamic_reconfigure.)
 find_package(diagnostic_updater REQUIRED)
-find_package(image_geometry REQUIRED)
+find_package(diagnostic_msgs REQUIRED)
 find_package(dynamic_reconfigure REQUIRED)
-set(PLANETARY_VO_NODELET_INCLUDE_DIRS ${diagnostic_updater_INCLUDE_DIRS} ${dynamic_reconfigure_INCLUDE_DIRS})
-set(PLANETARY_VO_NODELET_LIBRARIES ${diagnostic_updater_LIBRARIES} ${dynamic_reconfigure_LIBRARIES})
+find_package(tf2 REQUIRED)
+set(PLANETARY_VO_NODELET_INCLUDE_DIRS ${diagnostic_updater_INCLUDE_DIRS} ${diagnostic_msgs_INCLUDE_DIRS}
+    ${dynamic_reconfigure_INCLUDE_DIRS} ${tf2_INCLUDE_DIRS})
+set(PLANETARY_VO_NODELET_LIBRARIES ${diagnostic_updater_LIBRARIES} ${dynamic_reconfigure_LIBRARIES} ${tf2_LIBRARIES})
 
 # dynamic_reconfigure: cfg/VoReconfigure.cfg -> devel/include/planetary_vo/VoReconfigureConfig.h (+ Python). The
 # macro refuses to run after catkin_package(), which the top-level file calls before including this one; its

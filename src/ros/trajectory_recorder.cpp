@@ -17,8 +17,8 @@ namespace {
 
 class TrajectoryRecorder {
  public:
-  TrajectoryRecorder(ros::NodeHandle& nh, const std::string& path, double stamp_offset_s)
-      : out_(path), stamp_offset_s_(stamp_offset_s) {
+  TrajectoryRecorder(ros::NodeHandle& nh, const std::string& path, double stamp_offset_s) : out_(path) {
+    stamp_offset_.fromSec(stamp_offset_s);
     if (!out_) throw std::runtime_error("cannot write " + path);
     out_ << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(9) << std::fixed;
     sub_ = nh.subscribe("pose", 1000, &TrajectoryRecorder::onPose, this);
@@ -28,12 +28,12 @@ class TrajectoryRecorder {
   void onPose(const geometry_msgs::PoseStampedConstPtr& msg) {
     const auto& p = msg->pose.position;
     const auto& q = msg->pose.orientation;
-    out_ << msg->header.stamp.toSec() - stamp_offset_s_ << ' ' << p.x << ' ' << p.y << ' ' << p.z << ' '
+    out_ << (msg->header.stamp - stamp_offset_).toSec() << ' ' << p.x << ' ' << p.y << ' ' << p.z << ' '
          << q.x << ' ' << q.y << ' ' << q.z << ' ' << q.w << std::endl;
   }
 
   std::ofstream out_;
-  double stamp_offset_s_;
+  ros::Time stamp_offset_;  ///< subtracted in integer nanoseconds, so 1e9 s + 0.3 s gives exactly 0.3
   ros::Subscriber sub_;
 };
 

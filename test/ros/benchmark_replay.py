@@ -3,7 +3,7 @@
 the mean pipeline time per frame (VoStatus.total_ms), the mean time the ROS layer adds per frame
 (VoStatus.ros_overhead_ms: conversion, checks, publishing), and the end-to-end rate of vo/pose in poses per
 wall-clock second between the first and the last pose. Stops after `--frames` poses or `--idle` seconds
-without a pose. Usage (with a replay running, e.g. replay.launch bag:=... rate:=50 queue_size:=1000):
+without a pose (a minute before the first). Usage (with a replay running, e.g. replay.launch bag:=... rate:=50 queue_size:=1000):
   /usr/bin/python3 test/ros/benchmark_replay.py --frames 40
 """
 import argparse
@@ -27,8 +27,9 @@ def main():
     start = time.monotonic()
     while not rospy.is_shutdown():
         time.sleep(0.1)
-        last = pose_times[-1] if pose_times else start
-        if (args.frames and len(pose_times) >= args.frames) or time.monotonic() - last > args.idle:
+        # Before the first pose, wait up to a minute for the replay to start.
+        last, idle = (pose_times[-1], args.idle) if pose_times else (start, 60.0)
+        if (args.frames and len(pose_times) >= args.frames) or time.monotonic() - last > idle:
             break
     n = len(statuses)
     if n == 0 or len(pose_times) < 2:
