@@ -20,9 +20,10 @@ namespace {
 constexpr double kBaseSpacing = 1.0 / 64.0;  // lattice spacing of level 0 (m)
 constexpr int kChunk = 64;                   // samples per chunk side
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr int kBlockShift = 3;  // blocks of 8x8 lattice cells for the empty-space bound
+constexpr int kBlockShift = 1;  // finest blocks of 2x2 lattice cells for the empty-space bound
 constexpr int kBlock = 1 << kBlockShift;
 constexpr float kNoBound = std::numeric_limits<float>::infinity();
+constexpr int kMipLevels = 8;  // bound blocks of 2 ... 512 lattice cells
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
@@ -61,6 +62,14 @@ struct Level {
   int64_t bx0 = 0, by0 = 0;
   int nbx = 0, nby = 0;
   std::vector<float> bound;
+  // Max pyramid of `bound`: pyramid[m] holds blocks of kBlock * 2^(m+1) cells (max of their 4 children), so
+  // rays high above the ground skip tens of metres per step instead of one small block.
+  struct Mip {
+    int64_t bx0 = 0, by0 = 0;
+    int nbx = 0, nby = 0;
+    std::vector<float> v;
+  };
+  std::vector<Mip> pyramid;
 
   bool locate(double x, double y, int* idx, double* fu, double* fv) const {
     const double u = x * inv_s - static_cast<double>(i0), v = y * inv_s - static_cast<double>(j0);
@@ -103,7 +112,10 @@ struct Renderer::Impl {
   double lodAt(double x, double y) const {
     const double dx = x - cam.x(), dy = y - cam.y();
     // log2(distance * ifov / base) + bias, without the square root (this runs once per ray step).
-    const double l = 0.5 * std::log2(dx * dx + dy * dy + dz2) + lod_offset;
+    // Single precision: the LOD only chooses the blend of two lattices; its rounding (1e-7 of a level)
+    // changes the surface by far less than the 0.1 mm crossing tolerance, and log2f is several times faster.
+    const double l =
+        0.5 * static_cast<double>(std::log2(static_cast<float>(dx * dx + dy * dy + dz2))) + lod_offset;
     return std::clamp(l, static_cast<double>(kmin), static_cast<double>(kmax));
   }
 
@@ -287,25 +299,29 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
   stats->chunks_baked = static_cast<int>(missing.size());
   stats->chunks_used = static_cast<int>(needs.size());
 
-  // Assemble the dense level windows.
-  size_t nid = 0;
+  // Assemble the dense level windows: chunks cover their level's window completely and write disjoint parts
+  // of it, so they are copied in parallel into uninitialised storage.
   for (Level& L : levels) {
-    L.h.assign(static_cast<size_t>(L.nx) * L.ny, 0.f);
-    L.a.assign(L.h.size(), 0.f);
-    for (; nid < needs.size() && needs[nid].k == L.k; ++nid) {
-      const Need& n = needs[nid];
-      for (int j = 0; j < kChunk; ++j) {
-        const int64_t y = n.cj * kChunk + j - L.j0;
-        if (y < 0 || y >= L.ny) continue;
-        for (int i = 0; i < kChunk; ++i) {
-          const int64_t x = n.ci * kChunk + i - L.i0;
-          if (x < 0 || x >= L.nx) continue;
-          L.h[y * L.nx + x] = n.chunk->height[j * kChunk + i];
-          L.a[y * L.nx + x] = n.chunk->albedo[j * kChunk + i];
-        }
-      }
-    }
+    L.h.resize(static_cast<size_t>(L.nx) * L.ny);
+    L.a.resize(L.h.size());
   }
+  std::vector<Level*> level_of_k(kmax - kmin + 1);
+  for (Level& L : levels) level_of_k[L.k - kmin] = &L;
+  parallelFor(static_cast<int>(needs.size()), threads, [&](int m) {
+    const Need& n = needs[m];
+    Level& L = *level_of_k[n.k - kmin];
+    const int64_t x_first = std::max<int64_t>(0, n.ci * kChunk - L.i0);
+    const int64_t x_end = std::min<int64_t>(L.nx, n.ci * kChunk + kChunk - L.i0);
+    for (int j = 0; j < kChunk; ++j) {
+      const int64_t y = n.cj * kChunk + j - L.j0;
+      if (y < 0 || y >= L.ny) continue;
+      const int64_t src = j * kChunk + (x_first + L.i0 - n.ci * kChunk);
+      std::copy(n.chunk->height.begin() + src, n.chunk->height.begin() + src + (x_end - x_first),
+                L.h.begin() + y * L.nx + x_first);
+      std::copy(n.chunk->albedo.begin() + src, n.chunk->albedo.begin() + src + (x_end - x_first),
+                L.a.begin() + y * L.nx + x_first);
+    }
+  });
   // Evict the least recently used chunks beyond the budget (never those of this frame).
   if (cache.size() > settings.cache_chunks) {
     std::vector<std::pair<uint64_t, std::tuple<int, int64_t, int64_t>>> order;
@@ -318,28 +334,40 @@ void Renderer::Impl::bakeLevels(RenderStats* stats) {
 
   // Lipschitz bound of the frame surface H(x, y): steepest lattice slope of any level plus the geomorphing
   // term (h_{k+1} - h_k) * dl/dx, with |dl/dx| <= 1 / (ln 2 * distance).
-  double slope = 0.0, morph = 0.0, hmax = -1e18, hmin = 1e18;
-  for (size_t li = 0; li < levels.size(); ++li) {
-    const Level& L = levels[li];
-    float m = 0.f;
-    for (int j = 0; j + 1 < L.ny; ++j)
-      for (int i = 0; i + 1 < L.nx; ++i) {
-        const float h = L.h[j * L.nx + i];
-        m = std::max({m, std::abs(L.h[j * L.nx + i + 1] - h), std::abs(L.h[(j + 1) * L.nx + i] - h),
-                      std::abs(L.h[(j + 1) * L.nx + i + 1] - h)});
-      }
-    slope = std::max(slope, m / L.s);
-    for (float h : L.h)
-      hmax = std::max(hmax, static_cast<double>(h)), hmin = std::min(hmin, static_cast<double>(h));
-    if (li + 1 < levels.size()) {
-      const Level& C = levels[li + 1];
-      for (int j = 0; j < L.ny; j += 4)
+  // Computed over row bands of every level in parallel (it touches every sample of the frame).
+  struct Band {
+    int li, j0, j1;
+    double slope = 0.0, morph = 0.0, hmax = -1e18, hmin = 1e18;
+  };
+  std::vector<Band> bands;
+  for (int li = 0; li < static_cast<int>(levels.size()); ++li)
+    for (int j = 0; j < levels[li].ny; j += 64) bands.push_back({li, j, std::min(j + 64, levels[li].ny)});
+  parallelFor(static_cast<int>(bands.size()), threads, [&](int bi) {
+    Band& B = bands[bi];
+    const Level& L = levels[B.li];
+    float m = 0.f, lo = std::numeric_limits<float>::max(), hi = -lo;
+    for (int j = B.j0; j < B.j1; ++j) {
+      const float* r0 = &L.h[static_cast<size_t>(j) * L.nx];
+      for (int i = 0; i < L.nx; ++i) lo = std::min(lo, r0[i]), hi = std::max(hi, r0[i]);
+      if (j + 1 >= L.ny) continue;
+      const float* r1 = r0 + L.nx;
+      for (int i = 0; i + 1 < L.nx; ++i)
+        m = std::max({m, std::abs(r0[i + 1] - r0[i]), std::abs(r1[i] - r0[i]), std::abs(r1[i + 1] - r0[i])});
+    }
+    B.slope = m / L.s, B.hmin = lo, B.hmax = hi;
+    if (B.li + 1 < static_cast<int>(levels.size())) {
+      const Level& C = levels[B.li + 1];
+      for (int j = B.j0 + (4 - B.j0 % 4) % 4; j < B.j1; j += 4)
         for (int i = 0; i < L.nx; i += 4) {
           const double v = C.sampleField(C.h, (L.i0 + i) * L.s, (L.j0 + j) * L.s);
-          if (!std::isnan(v)) morph = std::max(morph, std::abs(v - L.h[j * L.nx + i]));
+          if (!std::isnan(v)) B.morph = std::max(B.morph, std::abs(v - L.h[j * L.nx + i]));
         }
     }
-  }
+  });
+  double slope = 0.0, morph = 0.0, hmax = -1e18, hmin = 1e18;
+  for (const Band& B : bands)
+    slope = std::max(slope, B.slope), morph = std::max(morph, B.morph), hmax = std::max(hmax, B.hmax),
+    hmin = std::min(hmin, B.hmin);
   lipschitz = 1.1 * (slope + (morph + 0.1) / (std::log(2.0) * std::sqrt(dz2))) + 1e-3;
   zhi = hmax, zlo = hmin;
   stats->lipschitz = lipschitz;
@@ -399,6 +427,27 @@ void Renderer::Impl::buildBlockBounds() {
           out = std::max(own, parent_ok ? C->bound[pj * C->nbx + pi] : kNoBound);
       }
   }
+  parallelFor(nl, threads, [&](int li) {
+    Level& L = levels[li];
+    L.pyramid.resize(kMipLevels);
+    int64_t bx0 = L.bx0, by0 = L.by0;
+    int nbx = L.nbx, nby = L.nby;
+    const std::vector<float>* child = &L.bound;
+    for (int m = 0; m < kMipLevels; ++m) {
+      Level::Mip& P = L.pyramid[m];
+      P.bx0 = bx0 >> 1, P.by0 = by0 >> 1;
+      P.nbx = static_cast<int>(((bx0 + nbx - 1) >> 1) - P.bx0 + 1);
+      P.nby = static_cast<int>(((by0 + nby - 1) >> 1) - P.by0 + 1);
+      P.v.assign(static_cast<size_t>(P.nbx) * P.nby, -kNoBound);
+      for (int j = 0; j < nby; ++j)
+        for (int i = 0; i < nbx; ++i) {
+          float& b = P.v[(((by0 + j) >> 1) - P.by0) * P.nbx + (((bx0 + i) >> 1) - P.bx0)];
+          b = std::max(b, (*child)[j * nbx + i]);
+        }
+      bx0 = P.bx0, by0 = P.by0, nbx = P.nbx, nby = P.nby;
+      child = &P.v;
+    }
+  });
 }
 
 void Renderer::Impl::sweepShadows() {
@@ -531,33 +580,46 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
           // bracket). The global bound is loose (steep boulders somewhere in the frame), so near the surface
           // the pure safe step would converge geometrically; the longer step brackets the crossing at once.
           const double safe = g / denom;
-          const double s_local = kBaseSpacing * std::exp2(std::floor(l));
+          const double s_local = levels[std::min(static_cast<int>(l), kmax) - kmin].s;
           const double step =
               std::max(safe, std::min(16.0 * safe, dxy > 1e-9 ? 0.5 * s_local / dxy : 16.0 * safe));
           // Empty-space skipping: if the ray stays above the bound of the current block up to where it
           // leaves the block (or floor(lod) changes), it may jump there when that is farther than the safe
           // step. Exact: the bound is >= the surface everywhere on that segment.
           double skip_to = 0.0;
-          // Near the surface the safe step already crosses the block: do not pay for the test there.
-          if (step * dxy < levels[std::min(static_cast<int>(l), kmax) - kmin].s * kBlock) {
-            int li = std::min(static_cast<int>(l), kmax) - kmin;
-            const Level& L = levels[li];
+          const int li = std::min(static_cast<int>(l), kmax) - kmin;
+          const Level& L = levels[li];
+          {
             const int64_t gbi = static_cast<int64_t>(std::floor(p.x() * L.inv_s)) >> kBlockShift;
             const int64_t gbj = static_cast<int64_t>(std::floor(p.y() * L.inv_s)) >> kBlockShift;
-            const int64_t bi = gbi - L.bx0, bj = gbj - L.by0;
-            if (bi >= 0 && bj >= 0 && bi < L.nbx && bj < L.nby) {
-              const double bound = L.bound[bj * L.nbx + bi];
-              const double size = L.s * kBlock;
-              double t_seg = std::numeric_limits<double>::infinity();
-              if (d.x() > 1e-12) t_seg = std::min(t_seg, ((gbi + 1) * size - cam.x()) / d.x());
-              if (d.x() < -1e-12) t_seg = std::min(t_seg, (gbi * size - cam.x()) / d.x());
-              if (d.y() > 1e-12) t_seg = std::min(t_seg, ((gbj + 1) * size - cam.y()) / d.y());
-              if (d.y() < -1e-12) t_seg = std::min(t_seg, (gbj * size - cam.y()) / d.y());
-              if (dxy > 1e-12) t_seg = std::min(t_seg, radius_to_level[li + 1] / dxy);
-              const double z_min = std::min(p.z(), cam.z() + t_seg * d.z());
-              if (std::isfinite(t_seg) && t_seg > t && z_min > bound + 1e-3) {
-                skip_to = t_seg + 1e-5;  // just into the next block (the 1 mm margin covers the overshoot)
+            const double t_lod =
+                dxy > 1e-12 ? radius_to_level[li + 1] / dxy : std::numeric_limits<double>::infinity();
+            // Climb the pyramid while the ray passes above the block containing p (a larger block has a
+            // larger bound and a farther exit, so once one fails, all larger ones fail).
+            for (int m = -1; m < kMipLevels; ++m) {
+              const int64_t bi = (gbi >> (m + 1)) - (m < 0 ? L.bx0 : L.pyramid[m].bx0);
+              const int64_t bj = (gbj >> (m + 1)) - (m < 0 ? L.by0 : L.pyramid[m].by0);
+              const int nbx = m < 0 ? L.nbx : L.pyramid[m].nbx, nby = m < 0 ? L.nby : L.pyramid[m].nby;
+              if (bi < 0 || bj < 0 || bi >= nbx || bj >= nby) break;
+              const double bound = (m < 0 ? L.bound : L.pyramid[m].v)[bj * nbx + bi];
+              const double size = L.s * (kBlock << (m + 1));
+              const int64_t ci = gbi >> (m + 1), cj = gbj >> (m + 1);
+              double t_seg = t_lod;
+              if (d.x() > 1e-12) t_seg = std::min(t_seg, ((ci + 1) * size - cam.x()) / d.x());
+              if (d.x() < -1e-12) t_seg = std::min(t_seg, (ci * size - cam.x()) / d.x());
+              if (d.y() > 1e-12) t_seg = std::min(t_seg, ((cj + 1) * size - cam.y()) / d.y());
+              if (d.y() < -1e-12) t_seg = std::min(t_seg, (cj * size - cam.y()) / d.y());
+              // The ray is above the surface while it stays above the bound plane inside the block: go to
+              // the block exit or to where it reaches the plane (1 mm above), whichever is first.
+              const double top = bound + 1e-3;
+              if (!(p.z() > top) || !std::isfinite(t_seg)) break;
+              const double t_plane = d.z() < -1e-12 ? (cam.z() - top) / -d.z() : t_seg;
+              if (t_plane < t_seg) {
+                skip_to = std::max(skip_to, t_plane);
+                break;  // larger blocks have higher planes
               }
+              skip_to = t_seg + 1e-5;     // just into the next block (the 1 mm margin covers the overshoot)
+              if (t_seg >= t_lod) break;  // the LOD changes there: larger blocks give nothing more
             }
           }
           t_prev = t, g_prev = g;
