@@ -136,6 +136,8 @@ std::string formatReport(const TrajectoryEvaluation& ev) {
   r << "  translation  " << statsLine(ev.ate_m, "m") << "\n";
   r << "  translation  rmse " << format("%.4f", ev.ate_rmse_percent) << " % of the path length\n";
   r << "  rotation     " << statsLine(ev.rotation_deg, "deg") << "\n";
+  r << "  attitude change since the first pose (independent of the alignment)\n";
+  r << "  rotation     " << statsLine(ev.attitude_drift_deg, "deg") << "\n";
   r << "  final position error " << format("%.4f", ev.final_position_error_m) << " m\n";
   r << "\nPosition error per world axis, estimate - ground truth (landing-site frame: x crossrange, y "
        "downrange, "
@@ -178,6 +180,7 @@ std::string toJson(const TrajectoryEvaluation& ev, bool with_poses) {
   j.stats("ate_m", ev.ate_m);
   j.number("ate_rmse_percent_of_path", ev.ate_rmse_percent);
   j.stats("rotation_error_deg", ev.rotation_deg);
+  j.stats("attitude_drift_deg", ev.attitude_drift_deg);
   j.number("final_position_error_m", ev.final_position_error_m);
   j.stats("crossrange_error_m", ev.crossrange_error_m);
   j.stats("downrange_error_m", ev.downrange_error_m);

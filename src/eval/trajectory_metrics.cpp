@@ -136,6 +136,21 @@ RelativeError relativeErrorOverDistance(const Trajectory& ground_truth, const Tr
   return acc.result("m", delta_m);
 }
 
+std::vector<double> attitudeDriftDeg(const Trajectory& ground_truth, const Trajectory& estimate) {
+  const size_t n = std::min(ground_truth.size(), estimate.size());
+  std::vector<double> drift_deg;
+  drift_deg.reserve(n);
+  if (n == 0) return drift_deg;
+  const Eigen::Matrix3d R_gt0_t = ground_truth.front().T_world_cam.linear().transpose();
+  const Eigen::Matrix3d R_est0_t = estimate.front().T_world_cam.linear().transpose();
+  for (size_t k = 0; k < n; ++k) {
+    const Eigen::Matrix3d dR_gt = R_gt0_t * ground_truth[k].T_world_cam.linear();
+    const Eigen::Matrix3d dR_est = R_est0_t * estimate[k].T_world_cam.linear();
+    drift_deg.push_back(rotationAngleDeg(dR_gt.transpose() * dR_est));
+  }
+  return drift_deg;
+}
+
 TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
                                         const EvaluationOptions& options) {
   TrajectoryEvaluation ev;
@@ -167,6 +182,7 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
   ev.ate_m = computeStatistics(ate);
   ev.ate_rmse_percent = ev.gt_path_length_m > 0.0 ? 100.0 * ev.ate_m.rmse / ev.gt_path_length_m : 0.0;
   ev.rotation_deg = computeStatistics(rot);
+  ev.attitude_drift_deg = computeStatistics(attitudeDriftDeg(pairs.ground_truth, pairs.estimate));
   ev.crossrange_error_m = computeStatistics(x);
   ev.downrange_error_m = computeStatistics(y);
   ev.altitude_error_m = computeStatistics(z);

@@ -70,9 +70,14 @@ struct TrajectoryEvaluation {
   double gt_path_length_m = 0.0;  ///< path length of the associated ground truth
   Sim3Transform alignment;        ///< estimate world -> ground-truth world
 
-  ErrorStatistics ate_m;                ///< absolute translation error after alignment
-  double ate_rmse_percent = 0.0;        ///< 100 * ate_m.rmse / gt_path_length_m
-  ErrorStatistics rotation_deg;         ///< absolute rotation error after alignment
+  ErrorStatistics ate_m;          ///< absolute translation error after alignment
+  double ate_rmse_percent = 0.0;  ///< 100 * ate_m.rmse / gt_path_length_m
+  ErrorStatistics rotation_deg;   ///< absolute rotation error after alignment
+  /// Error of the attitude change since the first associated pose: angle of
+  /// (R_gt_0^T R_gt_k)^T (R_est_0^T R_est_k). It does not depend on the alignment, so it stays meaningful
+  /// when the positions barely constrain the alignment's rotation (a nearly straight descent leaves the roll
+  /// about the path free, and rotation_deg then carries that alignment error, not the VO's).
+  ErrorStatistics attitude_drift_deg;
   ErrorStatistics crossrange_error_m;   ///< signed x error
   ErrorStatistics downrange_error_m;    ///< signed y error
   ErrorStatistics altitude_error_m;     ///< signed z error
@@ -86,6 +91,10 @@ struct TrajectoryEvaluation {
 /// degenerate.
 TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
                                         const EvaluationOptions& options);
+
+/// Attitude-change errors since the first pose of associated pairs (see
+/// TrajectoryEvaluation::attitude_drift_deg).
+std::vector<double> attitudeDriftDeg(const Trajectory& ground_truth, const Trajectory& estimate);
 
 /// Per-pose errors of already associated and aligned pairs.
 std::vector<PoseError> computePoseErrors(const Trajectory& ground_truth, const Trajectory& aligned_estimate);

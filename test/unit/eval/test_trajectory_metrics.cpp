@@ -74,6 +74,32 @@ TEST(Ate, ConstantAttitudeErrorIsReportedInDegrees) {
   EXPECT_GT(ev.poses[5].q_world_cam_est.dot(ev.poses[5].q_world_cam_gt), 0.0);  // same hemisphere
 }
 
+TEST(AttitudeDrift, IndependentOfAWorldRotationAndEqualToAKnownDrift) {
+  const Trajectory gt = test::descentGroundTruth();
+  // The estimate lives in a world frame turned by 70 deg: its attitude change since the first pose is exact.
+  const Pose T_est_gt = test::makePose(
+      Eigen::AngleAxisd(70.0 * M_PI / 180.0, Eigen::Vector3d(0.2, 1, 0.3).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(5, -3, 2));
+  Trajectory rotated = gt;
+  for (StampedPose& p : rotated) p.T_world_cam = T_est_gt * p.T_world_cam;
+  EvaluationOptions options;
+  options.alignment = AlignmentMode::kNone;
+  const TrajectoryEvaluation ev_rotated = evaluateTrajectory(gt, rotated, options);
+  EXPECT_NEAR(ev_rotated.rotation_deg.rmse, 70.0, 1e-6);  // the unaligned attitude error is the world turn
+  EXPECT_LT(ev_rotated.attitude_drift_deg.max, 1e-6);
+
+  // An attitude that drifts by 0.01 deg per frame about the camera axis has drift 0.01 k deg at frame k.
+  Trajectory drifting = gt;
+  for (size_t k = 0; k < drifting.size(); ++k)
+    drifting[k].T_world_cam.linear() =
+        drifting[k].T_world_cam.rotation() *
+        Eigen::AngleAxisd(0.01 * k * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const std::vector<double> drift = attitudeDriftDeg(gt, drifting);
+  ASSERT_EQ(drift.size(), gt.size());
+  for (size_t k = 0; k < drift.size(); ++k) EXPECT_NEAR(drift[k], 0.01 * k, 1e-6) << "frame " << k;
+  EXPECT_NEAR(evaluateTrajectory(gt, drifting, options).attitude_drift_deg.max, 0.01 * (gt.size() - 1), 1e-6);
+}
+
 TEST(Rpe, KnownPerStepTranslationDrift) {
   const Trajectory gt = test::straightLine(101);  // 100 m along y, 1 m per step
   const Trajectory est =
