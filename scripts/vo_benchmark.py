@@ -16,6 +16,7 @@ Usage (after scripts/build.sh):
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -43,6 +44,21 @@ def count_lines(path):
         return 0
     with open(path) as f:
         return sum(1 for line in f if line.strip() and not line.startswith("#"))
+
+
+def parse_vo_run_log(path):
+    """Frame counts and the per-frame time of the whole process() call from vo_run's summary."""
+    found = {}
+    with open(path) as f:
+        for line in f:
+            m = re.search(r"(\d+) processed frames.* (\d+) poses ->", line)
+            if m:
+                processed, poses = int(m.group(1)), int(m.group(2))
+                found["coverage"] = poses / max(1, processed)
+            m = re.match(r"\s*total\s+([0-9.]+)\s+([0-9.]+)", line)
+            if m:
+                found["track_median_ms"], found["track_p99_ms"] = float(m.group(1)), float(m.group(2))
+    return found
 
 
 def mark(ate_percent, rotation_deg, coverage):
@@ -94,19 +110,14 @@ def main():
         for config in args.configs.split(","):
             out = os.path.join(args.output, "runs", sequence, config)
             os.makedirs(out, exist_ok=True)
-            traj, stats = os.path.join(out, "trajectory.txt"), os.path.join(out, "vo_stats.json")
+            traj = os.path.join(out, "trajectory.txt")
+            run_log = os.path.join(out, "vo_run.log")
             rc, secs = run([os.path.join(bin_dir, "vo_run"), "--dataset", dataset,
                             "--config", os.path.join(ROOT, "config", config + ".yaml"),
-                            "--output", traj, "--stats", stats, "--quiet"], os.path.join(out, "vo_run.log"))
+                            "--output", traj, "--quiet"], run_log)
             row = {"sequence": sequence, "config": config, "ate_percent": None, "rotation_rms_deg": None,
                    "coverage": 0.0, "track_median_ms": None, "track_p99_ms": None, "vo_run_rc": rc}
-            if os.path.exists(stats):
-                with open(stats) as f:
-                    vo_stats = json.load(f)
-                row["track_median_ms"] = vo_stats.get("frame_ms", {}).get("median")
-                row["track_p99_ms"] = vo_stats.get("frame_ms", {}).get("p99")
-                processed = max(1, vo_stats.get("num_processed_frames", 1))
-                row["coverage"] = vo_stats.get("num_poses_output", count_lines(traj)) / processed
+            row.update(parse_vo_run_log(run_log))
             if rc == 0 and count_lines(traj) >= 3:
                 ev_json = os.path.join(out, "eval.json")
                 eval_cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj, "--align", "sim3",
