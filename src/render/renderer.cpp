@@ -143,6 +143,7 @@ struct Renderer::Impl {
 
   // Horizontal distance from the camera at which floor(lod) reaches level index i (radius_to_level[i]).
   std::vector<double> radius_to_level;
+  std::vector<std::vector<float>> raw_bounds;  // scratch of buildBlockBounds, kept for its capacity
 
   void buildBlockBounds();
   void setupFrame(const Pose& T, RenderStats* stats);
@@ -229,7 +230,9 @@ void Renderer::Impl::setupFrame(const Pose& T, RenderStats* stats) {
       static_cast<int>(std::ceil(std::log2(std::max(ext_len / 384.0, kBaseSpacing) / kBaseSpacing)));
   kmax = std::min(std::max(kmax, k_ext), kmin + 16);
 
-  levels.assign(kmax - kmin + 1, Level());
+  // Keep the previous frame's Level objects: their buffers are reused (no per-frame allocation and page
+  // faults of tens of MB at 1024x1024); every field is overwritten below or in bakeLevels.
+  levels.resize(kmax - kmin + 1);
   for (int k = kmax; k >= kmin; --k) {
     Level& L = levels[k - kmin];
     L.k = k;
@@ -402,8 +405,9 @@ void Renderer::Impl::buildBlockBounds() {
   // li's window: li + 1 is then used where it exists, else ignored); near the window edge it may fall back
   // to li + 1 alone and beyond, which li + 1's own final bound covers. The coarsest level has nothing to fall
   // back to (the ray leaves the terrain there): no skipping over its partial blocks.
-  std::vector<std::vector<float>> raw(nl);
-  for (int li = 0; li < nl; ++li) raw[li] = levels[li].bound;
+  raw_bounds.resize(nl);
+  std::vector<std::vector<float>>& raw = raw_bounds;
+  for (int li = 0; li < nl; ++li) raw[li] = levels[li].bound;  // reuses capacity
   for (int li = nl - 1; li >= 0; --li) {
     Level& L = levels[li];
     const Level* C = li + 1 < nl ? &levels[li + 1] : nullptr;
@@ -533,6 +537,8 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
       const Eigen::Vector3d b = camera.pixelToBearing(Eigen::Vector2d(col, row));  // unit, camera frame
       const Eigen::Vector3d d = R * b;
       const double dxy = std::hypot(d.x(), d.y());
+      // Reciprocals for the block-exit tests of the march (divisions dominated its cost).
+      const double inv_dx = 1.0 / d.x(), inv_dy = 1.0 / d.y(), inv_dz = 1.0 / d.z(), inv_dxy = 1.0 / dxy;
       double value = 0.0, depth = 0.0;
       bool shadowed = false;
       double t = 0.0;
@@ -593,7 +599,7 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
             const int64_t gbi = static_cast<int64_t>(std::floor(p.x() * L.inv_s)) >> kBlockShift;
             const int64_t gbj = static_cast<int64_t>(std::floor(p.y() * L.inv_s)) >> kBlockShift;
             const double t_lod =
-                dxy > 1e-12 ? radius_to_level[li + 1] / dxy : std::numeric_limits<double>::infinity();
+                dxy > 1e-12 ? radius_to_level[li + 1] * inv_dxy : std::numeric_limits<double>::infinity();
             // Climb the pyramid while the ray passes above the block containing p (a larger block has a
             // larger bound and a farther exit, so once one fails, all larger ones fail).
             for (int m = -1; m < kMipLevels; ++m) {
@@ -605,15 +611,15 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
               const double size = L.s * (kBlock << (m + 1));
               const int64_t ci = gbi >> (m + 1), cj = gbj >> (m + 1);
               double t_seg = t_lod;
-              if (d.x() > 1e-12) t_seg = std::min(t_seg, ((ci + 1) * size - cam.x()) / d.x());
-              if (d.x() < -1e-12) t_seg = std::min(t_seg, (ci * size - cam.x()) / d.x());
-              if (d.y() > 1e-12) t_seg = std::min(t_seg, ((cj + 1) * size - cam.y()) / d.y());
-              if (d.y() < -1e-12) t_seg = std::min(t_seg, (cj * size - cam.y()) / d.y());
+              if (d.x() > 1e-12) t_seg = std::min(t_seg, ((ci + 1) * size - cam.x()) * inv_dx);
+              if (d.x() < -1e-12) t_seg = std::min(t_seg, (ci * size - cam.x()) * inv_dx);
+              if (d.y() > 1e-12) t_seg = std::min(t_seg, ((cj + 1) * size - cam.y()) * inv_dy);
+              if (d.y() < -1e-12) t_seg = std::min(t_seg, (cj * size - cam.y()) * inv_dy);
               // The ray is above the surface while it stays above the bound plane inside the block: go to
               // the block exit or to where it reaches the plane (1 mm above), whichever is first.
               const double top = bound + 1e-3;
               if (!(p.z() > top) || !std::isfinite(t_seg)) break;
-              const double t_plane = d.z() < -1e-12 ? (cam.z() - top) / -d.z() : t_seg;
+              const double t_plane = d.z() < -1e-12 ? (top - cam.z()) * inv_dz : t_seg;
               if (t_plane < t_seg) {
                 skip_to = std::max(skip_to, t_plane);
                 break;  // larger blocks have higher planes
