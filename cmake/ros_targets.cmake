@@ -8,29 +8,13 @@
 #   vo_node                the nodelet in an in-process loader, for use without a manager
 #   trajectory_recorder    PoseStamped topic -> TUM file
 
-# Packages of the VO nodelet that the top-level find_package(catkin COMPONENTS ...) does not list.
-# (They belong in its catkin_package(CATKIN_DEPENDS) too, which catkin_lint asks for dynamic_reconfigure.)
-find_package(diagnostic_updater REQUIRED)
-find_package(diagnostic_msgs REQUIRED)
-find_package(dynamic_reconfigure REQUIRED)
-find_package(tf2 REQUIRED)
-set(PLANETARY_VO_NODELET_INCLUDE_DIRS ${diagnostic_updater_INCLUDE_DIRS} ${diagnostic_msgs_INCLUDE_DIRS}
-    ${dynamic_reconfigure_INCLUDE_DIRS} ${tf2_INCLUDE_DIRS})
-set(PLANETARY_VO_NODELET_LIBRARIES ${diagnostic_updater_LIBRARIES} ${dynamic_reconfigure_LIBRARIES} ${tf2_LIBRARIES})
-
-# dynamic_reconfigure: cfg/VoReconfigure.cfg -> devel/include/planetary_vo/VoReconfigureConfig.h (+ Python). The
-# macro refuses to run after catkin_package(), which the top-level file calls before including this one; its
-# output does not change catkin_package()'s exports (the generated header sits beside the messages' in
-# devel/include), so the check is lifted for this one call.
-set(_planetary_vo_catkin_package ${${PROJECT_NAME}_CATKIN_PACKAGE})
-unset(${PROJECT_NAME}_CATKIN_PACKAGE)
-generate_dynamic_reconfigure_options(cfg/VoReconfigure.cfg)
-set(${PROJECT_NAME}_CATKIN_PACKAGE ${_planetary_vo_catkin_package})
+# The nodelet's extra packages (tf2, diagnostics, dynamic_reconfigure) are catkin components of the top-level
+# find_package, so catkin_INCLUDE_DIRS / catkin_LIBRARIES carry them; the reconfigure header is generated there too.
 
 # Gives a target that uses ROS headers catkin's include directories (per target: the core libraries never see
 # them) and makes it wait for the generated messages. Every ROS-layer target calls it, including the tests.
 function(planetary_vo_ros_target target)
-  target_include_directories(${target} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS} ${PLANETARY_VO_NODELET_INCLUDE_DIRS}
+  target_include_directories(${target} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS}
                              ${CATKIN_DEVEL_PREFIX}/${CATKIN_GLOBAL_INCLUDE_DESTINATION})
   add_dependencies(${target} ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS} ${PROJECT_NAME}_gencfg)
 endfunction()
@@ -44,7 +28,7 @@ add_library(planetary_vo_ros STATIC
 set_target_properties(planetary_vo_ros PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_include_directories(planetary_vo_ros PUBLIC ${PROJECT_SOURCE_DIR}/include)
 target_link_libraries(planetary_vo_ros PUBLIC planetary_vo_dataset planetary_vo_vo planetary_vo_eval
-                      ${catkin_LIBRARIES} ${PLANETARY_VO_NODELET_LIBRARIES})
+                      ${catkin_LIBRARIES})
 planetary_vo_ros_target(planetary_vo_ros)
 
 add_library(planetary_vo_nodelets SHARED ${PROJECT_SOURCE_DIR}/src/ros/vo_nodelet.cpp)

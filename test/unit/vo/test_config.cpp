@@ -211,7 +211,7 @@ TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
     const VoConfig c = loadVoConfig(sourceRoot() + file);
     EXPECT_EQ(c.motion.model, model) << file;
     EXPECT_EQ(c.keyframe.mode, KeyframeMode::kFixedRate) << file;
-    EXPECT_EQ(c.keyframe.process_every_n_frames, 60) << file;
+    EXPECT_EQ(c.keyframe.process_every_n_frames, 20) << file;  // 0.5 Hz of the 10 Hz renders
     EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation) << file;
     EXPECT_FALSE(c.bundle_adjustment.enabled) << file;
     EXPECT_EQ(c.tracker.replenish_strategy, ReplenishStrategy::kRestartBelowMin) << file;
