@@ -4,21 +4,23 @@
 /// frame's level-of-detail heightfield, lunar-Lambert shading, hard cast shadows, black sky.
 ///
 /// How a frame is made (and why it is fast and exact):
-///  1. The terrain is baked on a global lattice per LOD level k (spacing 2^k / 64 m) in 64x64-sample chunks
-///  that
-///     are cached between frames (a multi-resolution heightfield along the ground track): consecutive frames
-///     share almost all their chunks, so only the newly seen ground is evaluated procedurally.
-///  2. A continuous LOD field l(x, y) = log2(footprint of one pixel at distance |(x, y) - camera|) picks, for
-///  each
-///     ground point, a blend of the two nearest levels (geomorphing). The rendered surface of a frame is
-///     therefore one continuous function z = H(x, y): every pixel is the exact pinhole projection of that
-///     surface.
-///  3. Primary rays are sphere-traced with the surface's Lipschitz bound, then the crossing is refined by
-///  regula
-///     falsi to < 0.1 mm in height. Cast shadows come from a horizon sweep of each level toward the Sun
+///  1. The terrain is baked on a global lattice per LOD level k (spacing 2^k / 64 m) in 64x64-sample
+///     chunks that are cached between frames (a multi-resolution heightfield along the ground track):
+///     consecutive frames share almost all their chunks, so only the newly seen ground is evaluated
+///     procedurally.
+///  2. A continuous LOD field l(x, y) = log2(footprint of one pixel at distance |(x, y) - camera|) picks,
+///     for each ground point, a blend of the two nearest levels (geomorphing). The rendered surface of a
+///     frame is therefore one continuous function z = H(x, y): every pixel is the exact pinhole projection of
+///     that surface.
+///  3. Primary rays march with the surface's Lipschitz bound plus empty-space skipping: each LOD level keeps
+///     a max pyramid of its heights (blocks of 2 ... 512 lattice cells, folded with the next coarser level so
+///     it bounds the blended surface), and a ray above the bound of the block it is in jumps to the block
+///     exit or to the bound plane. The crossing is bracketed and refined by regula falsi to < 0.1 mm in
+///     height. Cast shadows come from a horizon sweep of each level toward the Sun
 ///     (every lattice sample marches toward the Sun at once, carrying the running shadow height), seeded from
 ///     the next coarser level so distant ridges cast shadows into the detailed area.
-///  4. Rows are shaded in parallel (std::thread).
+///  4. Chunks are baked (LunarTerrain::sampleGrid, per feature), assembled and bounded in parallel; rows are
+///     traced in parallel (std::thread). Results do not depend on the thread count.
 
 #include <cstdint>
 #include <memory>

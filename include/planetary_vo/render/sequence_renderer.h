@@ -18,7 +18,7 @@
 namespace planetary_vo::render {
 
 /// Bump whenever a change alters rendered pixels or streams, so cached sequences are re-rendered.
-constexpr const char* kRendererVersion = "lunar_render 1.1";
+constexpr const char* kRendererVersion = "lunar_render 1.2";
 
 struct SequenceOptions {
   std::string sequence = "approach_down";  ///< one of lunarSequences()
