@@ -7,6 +7,8 @@
 #   player                 the dataset player: ROS node, or `player --dataset DIR --bag OUT.bag` to write a bag
 #   vo_node                the nodelet in an in-process loader, for use without a manager
 #   trajectory_recorder    PoseStamped topic -> TUM file
+#   aligned_path_node      ground-truth overlay for rviz (display/evaluation aid): vo/pose through a running Sim(3)
+#                          onto ground_truth/pose -> vo/path_aligned, vo/ate_m, vo/map_points_aligned
 
 # The nodelet's extra packages (tf2, diagnostics, dynamic_reconfigure) are catkin components of the top-level
 # find_package, so catkin_INCLUDE_DIRS / catkin_LIBRARIES carry them; the reconfigure header is generated there too.
@@ -47,6 +49,11 @@ add_dependencies(vo_node planetary_vo_nodelets)  # loads it at run time
 add_executable(trajectory_recorder ${PROJECT_SOURCE_DIR}/src/ros/trajectory_recorder.cpp)
 target_link_libraries(trajectory_recorder ${catkin_LIBRARIES})
 planetary_vo_ros_target(trajectory_recorder)
+
+add_executable(aligned_path_node ${PROJECT_SOURCE_DIR}/src/ros/aligned_path_node.cpp)
+target_link_libraries(aligned_path_node planetary_vo_ros planetary_vo_eval)
+planetary_vo_ros_target(aligned_path_node)
+install(TARGETS aligned_path_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 install(TARGETS player vo_node trajectory_recorder RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS planetary_vo_nodelets

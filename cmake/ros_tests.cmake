@@ -129,3 +129,18 @@ if(TARGET GTest::gtest)
               DEPENDENCIES test_vo_manager ${vo_deps})
   add_rostest(test/ros/vo_params.test DEPENDENCIES test_vo_params planetary_vo_nodelets)
 endif()
+
+# ---------------------------------------------------------------------------------------------------------------
+# Ground-truth overlay (aligned_path_node)
+#   aligned_path  rostest: ground truth + a Sim(3)-transformed copy as vo/pose (stamps a few ms off, poses
+#                 missing, collinear start) -> vo/path_aligned equals the ground truth, vo/ate_m ~ 0, the map
+#                 goes through the same Sim(3)
+# ---------------------------------------------------------------------------------------------------------------
+if(TARGET GTest::gtest)
+  add_executable(test_aligned_path_node EXCLUDE_FROM_ALL test/ros/test_aligned_path_node.cpp)
+  target_link_libraries(test_aligned_path_node planetary_vo_ros planetary_vo_eval GTest::gtest)
+  target_include_directories(test_aligned_path_node PRIVATE ${PROJECT_SOURCE_DIR}/test/ros)
+  planetary_vo_ros_target(test_aligned_path_node)
+  add_dependencies(tests test_aligned_path_node aligned_path_node)
+  add_rostest(test/ros/aligned_path.test DEPENDENCIES test_aligned_path_node aligned_path_node)
+endif()

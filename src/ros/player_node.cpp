@@ -1,8 +1,15 @@
 /// @file player_node.cpp
 /// The `player` executable. `player --dataset DIR --bag OUT.bag` writes the stream into a bag and exits (no
 /// master); otherwise it is the ROS node `player`, publishing the stream of player.h paced by ~rate, with
-/// /clock, looping and pause/resume services. Parameters, topics and services: see the README table and
-/// launch/player.launch.
+/// /clock, looping and pause/resume services. Parameters, topics and services: see the README table,
+/// docs/ros_interface.md ("Dataset player in a launch") and launch/player.launch.
+///
+/// For launches that must not lose a frame and must end by themselves (scripts/demo.sh):
+/// ~wait_for_subscribers holds the first message until camera/image_raw and camera/camera_info each have that
+/// many subscribers; ~exit_when_done ends the node after a non-looping run (so `required="true"` ends
+/// roslaunch), after waiting, when ~exit_ack_topic is set, until a message on that topic carries the stamp of
+/// the last image (e.g. the VO's vo/status, one per image: every image has been processed). Both waits give
+/// up after ~wait_timeout.
 
 #include <algorithm>
 #include <chrono>
@@ -16,9 +23,12 @@
 #include <image_transport/image_transport.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <ros/topic_manager.h>
 #include <rosgraph_msgs/Clock.h>
+#include <std_msgs/Header.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <topic_tools/shape_shifter.h>
 
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/ros_io/player.h"
@@ -31,11 +41,22 @@ class LivePublisher : public PlayerSink {
  public:
   LivePublisher(ros::NodeHandle& nh, int queue_size, bool publish_clock) : image_transport_(nh) {
     camera_pub_ = image_transport_.advertiseCamera(player_topics::kImage, queue_size);
+    // A CameraPublisher counts image and camera_info subscribers together (the larger count); a
+    // CameraSubscriber needs both connections, so the wait asks for each one (see numCameraSubscribers()).
+    image_topic_ = nh.resolveName(player_topics::kImage);
+    info_topic_ = nh.resolveName(player_topics::kCameraInfo);
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>(player_topics::kGroundTruthPose, queue_size);
     path_pub_ = nh.advertise<nav_msgs::Path>(player_topics::kGroundTruthPath, queue_size);
     imu_pub_ = nh.advertise<sensor_msgs::Imu>(player_topics::kImu, queue_size);
     altimeter_pub_ = nh.advertise<sensor_msgs::Range>(player_topics::kAltimeter, queue_size);
     if (publish_clock) clock_pub_ = nh.advertise<rosgraph_msgs::Clock>(player_topics::kClock, queue_size);
+  }
+
+  /// Subscribers of the camera: the smaller of the image and camera_info subscriber counts, i.e. how many
+  /// subscribers would receive both halves of an image published now.
+  size_t numCameraSubscribers() const {
+    return std::min(ros::TopicManager::instance()->getNumSubscribers(image_topic_),
+                    ros::TopicManager::instance()->getNumSubscribers(info_topic_));
   }
 
   void emit(const PlayerMessage& m) override {
@@ -65,6 +86,7 @@ class LivePublisher : public PlayerSink {
  private:
   image_transport::ImageTransport image_transport_;
   image_transport::CameraPublisher camera_pub_;
+  std::string image_topic_, info_topic_;
   ros::Publisher pose_pub_, path_pub_, imu_pub_, altimeter_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 };
@@ -105,8 +127,20 @@ class PlayerNode {
         player_(dataset_, readOptions(pnh_, cl)),
         rate_(pnh_.param("rate", 1.0)),
         sink_(nh_, std::max(1, pnh_.param("queue_size", 100)), pnh_.param("publish_clock", false)),
-        paused_(pnh_.param("start_paused", false)) {
+        paused_(pnh_.param("start_paused", false)),
+        exit_when_done_(pnh_.param("exit_when_done", false)),
+        wait_for_subscribers_(pnh_.param("wait_for_subscribers", 0)),
+        wait_timeout_s_(pnh_.param("wait_timeout", 30.0)) {
     if (!(rate_ >= 0.0)) throw std::invalid_argument("~rate must be >= 0 (0: as fast as possible)");
+    if (wait_for_subscribers_ < 0) throw std::invalid_argument("~wait_for_subscribers must be >= 0");
+    if (!(wait_timeout_s_ >= 0.0)) throw std::invalid_argument("~wait_timeout must be >= 0 s");
+    if (exit_when_done_ && player_.options().loop) {
+      ROS_WARN("player: ~exit_when_done is ignored with ~loop (the stream never ends)");
+      exit_when_done_ = false;
+    }
+    const std::string ack_topic = pnh_.param("exit_ack_topic", std::string());
+    if (exit_when_done_ && !ack_topic.empty())
+      ack_sub_ = nh_.subscribe(ack_topic, 100, &PlayerNode::onAck, this);
     origin_ = Clock::now();
     pause_started_ = origin_;
     pause_srv_ = pnh_.advertiseService("pause", &PlayerNode::onPause, this);
@@ -123,6 +157,9 @@ class PlayerNode {
     const std::chrono::milliseconds kPoll(100);  // bound on the reaction to a shutdown request
     const std::optional<ros::Time> first = player_.nextStamp();
     std::unique_lock<std::mutex> lock(mutex_);
+    waitForSubscribers(lock);
+    origin_ = Clock::now();  // the schedule starts once the subscribers are there
+    if (paused_) pause_started_ = origin_;
     PlayerMessage message;
     while (ros::ok()) {
       const std::optional<ros::Time> stamp = player_.nextStamp();
@@ -142,12 +179,22 @@ class PlayerNode {
       }
       player_.next(&message);
       sink_.emit(message);
-      if (message.kind == StreamKind::kImage) ++images_published_;
+      if (message.kind == StreamKind::kImage) {
+        ++images_published_;
+        last_image_stamp_ = message.stamp;
+      }
     }
-    if (ros::ok())
+    if (!ros::ok()) return;
+    if (!exit_when_done_) {
       ROS_INFO_STREAM("player: done, " << images_published_
                                        << " images published; the node stays up until shutdown");
+      return;
+    }
+    waitForAck(lock);
+    ROS_INFO_STREAM("player: done, " << images_published_ << " images published; exiting (~exit_when_done)");
   }
+
+  bool exitWhenDone() const { return exit_when_done_; }
 
  private:
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
@@ -174,6 +221,58 @@ class PlayerNode {
     return true;
   }
 
+  /// Holds the first message until the camera has ~wait_for_subscribers subscribers (or ~wait_timeout
+  /// passed).
+  void waitForSubscribers(std::unique_lock<std::mutex>& lock) {
+    const size_t wanted = static_cast<size_t>(wait_for_subscribers_);
+    if (wanted == 0) return;
+    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                             std::chrono::duration<double>(wait_timeout_s_));
+    ROS_INFO_STREAM("player: waiting for " << wanted << " subscriber(s) of "
+                                           << ros::names::resolve(player_topics::kImage)
+                                           << " and camera_info");
+    // Connections are made by roscpp's own threads; nothing notifies us, so the count is polled.
+    while (ros::ok() && sink_.numCameraSubscribers() < wanted && Clock::now() < deadline)
+      resumed_.wait_for(lock, std::chrono::milliseconds(20));
+    if (sink_.numCameraSubscribers() < wanted && ros::ok())
+      ROS_WARN_STREAM("player: only " << sink_.numCameraSubscribers() << " of " << wanted
+                                      << " camera subscriber(s) after " << wait_timeout_s_
+                                      << " s (~wait_timeout); publishing anyway");
+  }
+
+  /// With ~exit_ack_topic: waits until a message on it carries the stamp of the last image (or later).
+  void waitForAck(std::unique_lock<std::mutex>& lock) {
+    if (!ack_sub_ || images_published_ == 0) return;
+    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                             std::chrono::duration<double>(wait_timeout_s_));
+    // Polled at 100 ms only to notice a shutdown request; an ack wakes the wait at once.
+    while (ros::ok() && ack_stamp_ < last_image_stamp_ && Clock::now() < deadline)
+      acked_.wait_until(lock, std::min(deadline, Clock::now() + std::chrono::milliseconds(100)));
+    if (ros::ok() && ack_stamp_ < last_image_stamp_)
+      ROS_WARN_STREAM("player: no message on " << ack_sub_.getTopic() << " with the last image stamp "
+                                               << last_image_stamp_ << " after " << wait_timeout_s_
+                                               << " s (~wait_timeout); exiting anyway");
+  }
+
+  /// Any message type whose first field is a std_msgs/Header (as every stamped message): its stamp.
+  void onAck(const topic_tools::ShapeShifter::ConstPtr& msg) {
+    std::vector<uint8_t> buffer(msg->size());
+    ros::serialization::OStream out(buffer.data(), static_cast<uint32_t>(buffer.size()));
+    msg->write(out);
+    std_msgs::Header header;
+    try {
+      ros::serialization::IStream in(buffer.data(), static_cast<uint32_t>(buffer.size()));
+      ros::serialization::deserialize(in, header);
+    } catch (const ros::serialization::StreamOverrunException&) {
+      ROS_WARN_STREAM_THROTTLE(5, "player: " << ack_sub_.getTopic() << " (" << msg->getDataType()
+                                             << ") does not start with a std_msgs/Header; ignored");
+      return;
+    }
+    std::lock_guard<std::mutex> guard(mutex_);
+    if (header.stamp > ack_stamp_) ack_stamp_ = header.stamp;
+    acked_.notify_all();
+  }
+
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   Dataset dataset_;
@@ -186,6 +285,13 @@ class PlayerNode {
   Clock::time_point origin_;  ///< wall time of the first message, shifted by the time spent paused
   Clock::time_point pause_started_;
   size_t images_published_ = 0;
+  bool exit_when_done_;
+  int wait_for_subscribers_;
+  double wait_timeout_s_;
+  ros::Subscriber ack_sub_;        ///< ~exit_ack_topic
+  std::condition_variable acked_;  ///< ack_stamp_ moved
+  ros::Time ack_stamp_;            ///< latest stamp seen on ~exit_ack_topic
+  ros::Time last_image_stamp_;     ///< of the last image published
   ros::ServiceServer pause_srv_, resume_srv_;
 };
 
@@ -217,7 +323,7 @@ int main(int argc, char** argv) {
     ros::AsyncSpinner spinner(1);  // services
     spinner.start();
     node.run();
-    ros::waitForShutdown();
+    if (!node.exitWhenDone()) ros::waitForShutdown();
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "player: " << e.what() << "\n" << playerUsage();
