@@ -6,10 +6,11 @@
 ///
 /// For launches that must not lose a frame and must end by themselves (scripts/demo.sh):
 /// ~wait_for_subscribers holds the first message until camera/image_raw and camera/camera_info each have that
-/// many subscribers; ~exit_when_done ends the node after a non-looping run (so `required="true"` ends
-/// roslaunch), after waiting, when ~exit_ack_topic is set, until a message on that topic carries the stamp of
-/// the last image (e.g. the VO's vo/status, one per image: every image has been processed). Both waits give
-/// up after ~wait_timeout.
+/// many subscribers (and ground_truth/pose ~wait_for_ground_truth_subscribers, e.g. a recorder);
+/// ~exit_when_done ends the node after a non-looping run (so `required="true"` ends roslaunch), after
+/// waiting, when ~exit_ack_topic is set, until a message on that topic carries the stamp of the last image
+/// (e.g. the VO's vo/status, one per image: every image has been processed). Both waits give up after
+/// ~wait_timeout.
 
 #include <algorithm>
 #include <chrono>
@@ -58,6 +59,8 @@ class LivePublisher : public PlayerSink {
     return std::min(ros::TopicManager::instance()->getNumSubscribers(image_topic_),
                     ros::TopicManager::instance()->getNumSubscribers(info_topic_));
   }
+
+  size_t numGroundTruthSubscribers() const { return pose_pub_.getNumSubscribers(); }
 
   void emit(const PlayerMessage& m) override {
     if (clock_pub_) {
@@ -130,9 +133,12 @@ class PlayerNode {
         paused_(pnh_.param("start_paused", false)),
         exit_when_done_(pnh_.param("exit_when_done", false)),
         wait_for_subscribers_(pnh_.param("wait_for_subscribers", 0)),
+        wait_for_gt_subscribers_(pnh_.param("wait_for_ground_truth_subscribers", 0)),
         wait_timeout_s_(pnh_.param("wait_timeout", 30.0)) {
     if (!(rate_ >= 0.0)) throw std::invalid_argument("~rate must be >= 0 (0: as fast as possible)");
-    if (wait_for_subscribers_ < 0) throw std::invalid_argument("~wait_for_subscribers must be >= 0");
+    if (wait_for_subscribers_ < 0 || wait_for_gt_subscribers_ < 0)
+      throw std::invalid_argument(
+          "~wait_for_subscribers and ~wait_for_ground_truth_subscribers must be >= 0");
     if (!(wait_timeout_s_ >= 0.0)) throw std::invalid_argument("~wait_timeout must be >= 0 s");
     if (exit_when_done_ && player_.options().loop) {
       ROS_WARN("player: ~exit_when_done is ignored with ~loop (the stream never ends)");
@@ -221,23 +227,29 @@ class PlayerNode {
     return true;
   }
 
-  /// Holds the first message until the camera has ~wait_for_subscribers subscribers (or ~wait_timeout
-  /// passed).
+  /// Holds the first message until the camera has ~wait_for_subscribers subscribers and ground_truth/pose
+  /// ~wait_for_ground_truth_subscribers (or ~wait_timeout passed).
   void waitForSubscribers(std::unique_lock<std::mutex>& lock) {
-    const size_t wanted = static_cast<size_t>(wait_for_subscribers_);
-    if (wanted == 0) return;
+    const size_t camera = static_cast<size_t>(wait_for_subscribers_);
+    const size_t ground_truth = static_cast<size_t>(wait_for_gt_subscribers_);
+    auto connected = [&] {
+      return sink_.numCameraSubscribers() >= camera && sink_.numGroundTruthSubscribers() >= ground_truth;
+    };
+    if (connected()) return;
     const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                              std::chrono::duration<double>(wait_timeout_s_));
-    ROS_INFO_STREAM("player: waiting for " << wanted << " subscriber(s) of "
+    ROS_INFO_STREAM("player: waiting for " << camera << " subscriber(s) of "
                                            << ros::names::resolve(player_topics::kImage)
-                                           << " and camera_info");
-    // Connections are made by roscpp's own threads; nothing notifies us, so the count is polled.
-    while (ros::ok() && sink_.numCameraSubscribers() < wanted && Clock::now() < deadline)
+                                           << " and camera_info, " << ground_truth << " of "
+                                           << ros::names::resolve(player_topics::kGroundTruthPose));
+    // Connections are made by roscpp's own threads; nothing notifies us, so the counts are polled.
+    while (ros::ok() && !connected() && Clock::now() < deadline)
       resumed_.wait_for(lock, std::chrono::milliseconds(20));
-    if (sink_.numCameraSubscribers() < wanted && ros::ok())
-      ROS_WARN_STREAM("player: only " << sink_.numCameraSubscribers() << " of " << wanted
-                                      << " camera subscriber(s) after " << wait_timeout_s_
-                                      << " s (~wait_timeout); publishing anyway");
+    if (ros::ok() && !connected())
+      ROS_WARN_STREAM("player: after "
+                      << wait_timeout_s_ << " s (~wait_timeout) only " << sink_.numCameraSubscribers()
+                      << " of " << camera << " camera subscriber(s) and " << sink_.numGroundTruthSubscribers()
+                      << " of " << ground_truth << " ground-truth subscriber(s); publishing anyway");
   }
 
   /// With ~exit_ack_topic: waits until a message on it carries the stamp of the last image (or later).
@@ -287,6 +299,7 @@ class PlayerNode {
   size_t images_published_ = 0;
   bool exit_when_done_;
   int wait_for_subscribers_;
+  int wait_for_gt_subscribers_;
   double wait_timeout_s_;
   ros::Subscriber ack_sub_;        ///< ~exit_ack_topic
   std::condition_variable acked_;  ///< ack_stamp_ moved
