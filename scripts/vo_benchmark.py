@@ -78,7 +78,8 @@ def main():
     ap.add_argument("--data", default=os.environ.get("PLANETARY_VO_DATA", os.path.join(ROOT, "..", "shared", "data")))
     ap.add_argument("--size", type=int, default=1024, help="rendered image side in pixels")
     ap.add_argument("--duration", type=float, default=0.0, help="render only the first S seconds (0 = all)")
-    ap.add_argument("--sequences", default=",".join(LUNAR_SEQUENCES + ["kitti_clip_turn"]))
+    ap.add_argument("--sequences", default=",".join(LUNAR_SEQUENCES + ["kitti_clip_turn"]),
+                    help="comma-separated NAME or NAME@SIZE (rendered image side for that sequence)")
     ap.add_argument("--configs", default=",".join(CONFIGS))
     ap.add_argument("--write-docs", action="store_true", help="write docs/results.md and its plots")
     args = ap.parse_args()
@@ -90,14 +91,17 @@ def main():
     os.makedirs(args.output, exist_ok=True)
 
     rows = []
-    for sequence in args.sequences.split(","):
+    for spec in args.sequences.split(","):
+        # NAME or NAME@SIZE: a Lunar sequence may be rendered at its own size (e.g. main_brake_down@512).
+        sequence, _, size_text = spec.partition("@")
+        size = int(size_text) if size_text else args.size
         if sequence == "kitti_clip_turn":
             dataset = os.path.join(args.data, "kitti_clip_turn")
         else:
-            suffix = f"{args.size}px" + (f"_{args.duration:g}s" if args.duration > 0 else "")
+            suffix = f"{size}px" + (f"_{args.duration:g}s" if args.duration > 0 else "")
             dataset = os.path.join(args.output, "sequences", f"{sequence}_{suffix}")
             cmd = [os.path.join(bin_dir, "lunar_render"), "--sequence", sequence, "--output", dataset,
-                   "--width", str(args.size), "--height", str(args.size)]
+                   "--width", str(size), "--height", str(size)]
             if args.duration > 0:
                 cmd += ["--duration", str(args.duration)]
             os.makedirs(os.path.dirname(dataset), exist_ok=True)
@@ -114,8 +118,9 @@ def main():
             run_log = os.path.join(out, "vo_run.log")
             rc, secs = run([os.path.join(bin_dir, "vo_run"), "--dataset", dataset,
                             "--config", os.path.join(ROOT, "config", config + ".yaml"),
-                            "--output", traj, "--quiet"], run_log)
-            row = {"sequence": sequence, "config": config, "ate_percent": None, "rotation_rms_deg": None,
+                            "--output", traj], run_log)
+            row = {"sequence": sequence, "size": "1241x376" if sequence == "kitti_clip_turn" else f"{size}x{size}",
+                   "config": config, "ate_percent": None, "rotation_rms_deg": None,
                    "coverage": 0.0, "track_median_ms": None, "track_p99_ms": None, "vo_run_rc": rc}
             row.update(parse_vo_run_log(run_log))
             if rc == 0 and count_lines(traj) >= 3:
@@ -149,14 +154,14 @@ def fmt(v, spec):
 
 
 def format_row(r):
-    return (f"| {r['sequence']} | {r['config']} | {fmt(r['ate_percent'], '.3f')} | "
+    return (f"| {r['sequence']} | {r['size']} | {r['config']} | {fmt(r['ate_percent'], '.3f')} | "
             f"{fmt(r['rotation_rms_deg'], '.3f')} | {r['coverage'] * 100:.0f} % | {r['mark']} | "
             f"{fmt(r['track_median_ms'], '.1f')} / {fmt(r['track_p99_ms'], '.1f')} |")
 
 
 def format_table(rows, args):
-    head = ("| sequence | configuration | ATE % of path (Sim3) | rotation RMS deg | frames with a pose | mark | "
-            "ms/frame median / p99 |\n|---|---|---|---|---|---|---|")
+    head = ("| sequence | image | configuration | ATE % of path (Sim3) | rotation RMS deg | frames with a pose | mark | "
+            "ms/frame median / p99 |\n|---|---|---|---|---|---|---|---|")
     return head + "\n" + "\n".join(format_row(r) for r in rows)
 
 
@@ -167,8 +172,8 @@ def write_docs(table, rows, args):
     lines = ["# VO benchmark results (thesis Table 4.8, with numbers)", "",
              "Produced by one command from a clean clone (after `bash scripts/demo.sh` has built the tools):", "",
              "```sh", "/usr/bin/python3 scripts/vo_benchmark.py " + " ".join(sys.argv[1:]), "```", "",
-             f"Images {args.size}x{args.size}" + (f", first {args.duration:g} s of each sequence" if args.duration
-                                                    else ", full sequences") + "; KITTI clip at its own size.",
+             ("First " + f"{args.duration:g} s of each Lunar sequence." if args.duration else
+              "Full Lunar sequences (10 Hz), at the image size given in the table; KITTI clip at its own size."),
              "Marks: correct = ATE <= 1 % and rotation RMS <= 0.5 deg; partial = ATE <= 5 %; failed = worse, or "
              "a pose for fewer than 90 % of the processed frames (lost).", "", table, ""]
     for r in rows:
