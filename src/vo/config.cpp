@@ -117,6 +117,19 @@ PLANETARY_VO_CONFIG_EQ(VoConfig, forEachField)
 #undef PLANETARY_VO_CONFIG_EQ
 
 const char* toString(MotionModel v) { return config_detail::enumName(v); }
+const char* toString(PlaneNormalPrior v) { return config_detail::enumName(v); }
+
+Eigen::Vector3d planeNormalPriorVector(PlaneNormalPrior prior) {
+  switch (prior) {
+    case PlaneNormalPrior::kOpticalAxis:
+      return Eigen::Vector3d::UnitZ();
+    case PlaneNormalPrior::kImageDown:
+      return Eigen::Vector3d::UnitY();
+    case PlaneNormalPrior::kNone:
+      break;
+  }
+  return Eigen::Vector3d::Zero();
+}
 const char* toString(KeyframeMode v) { return config_detail::enumName(v); }
 const char* toString(RobustLoss v) { return config_detail::enumName(v); }
 const char* toString(TrajectoryMode v) { return config_detail::enumName(v); }

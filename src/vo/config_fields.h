@@ -31,6 +31,13 @@ struct EnumNames<MotionModel> {
        {MotionModel::kAuto, "auto"}}};
 };
 template <>
+struct EnumNames<PlaneNormalPrior> {
+  static constexpr std::array<std::pair<PlaneNormalPrior, const char*>, 3> kValues{
+      {{PlaneNormalPrior::kNone, "none"},
+       {PlaneNormalPrior::kOpticalAxis, "optical_axis"},
+       {PlaneNormalPrior::kImageDown, "image_down"}}};
+};
+template <>
 struct EnumNames<KeyframeMode> {
   static constexpr std::array<std::pair<KeyframeMode, const char*>, 2> kValues{
       {{KeyframeMode::kFixedRate, "fixed_rate"}, {KeyframeMode::kParallax, "parallax"}}};
@@ -113,6 +120,7 @@ void motionFields(C& c, V& v) {
   v("homography_score_ratio", c.homography_score_ratio, 0.0, 1.0);
   v("min_inliers", c.min_inliers, 5, 100000);
   v("min_parallax_deg", c.min_parallax_deg, 0.0, 90.0);
+  v.enumeration("plane_normal_prior", c.plane_normal_prior);
 }
 
 template <class C, class V>

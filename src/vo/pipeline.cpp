@@ -52,7 +52,7 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
     : config_(config),
       camera_(camera),
       tracker_(config.tracker, config.detector),
-      initializer_(config.motion, config.map),
+      initializer_(config.motion, config.map, planeNormalPriorVector(config.motion.plane_normal_prior)),
       pnp_tracker_(config.pnp, config.bundle_adjustment),
       keyframe_policy_(config.keyframe) {
   config_.validate();

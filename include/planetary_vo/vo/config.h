@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace planetary_vo {
 
 /// Thrown by the loader and by VoConfig::validate(); the message lists every problem, one per line, each
@@ -71,6 +73,17 @@ struct TrackerConfig {
 
 enum class MotionModel { kFundamental, kEssential, kHomography, kAuto };
 
+/// Expected ground-plane normal in the camera frame (pointing away from the camera) that may decide the
+/// homography's two-fold ambiguity when the points' in-front counts cannot.
+enum class PlaneNormalPrior {
+  kNone,         ///< no prior: an ambiguous homography is rejected and the essential matrix is tried
+  kOpticalAxis,  ///< +z: the ground faces a nadir (down-looking) camera
+  kImageDown,    ///< +y: the ground lies below a forward-looking vehicle camera (road, rover)
+};
+
+/// The unit normal of `prior` in the camera frame; zero for kNone.
+Eigen::Vector3d planeNormalPriorVector(PlaneNormalPrior prior);
+
 /// Stage 3: two-view motion estimation (thesis 4.4.4) and the H-vs-F/E model selection.
 struct MotionConfig {
   MotionModel model = MotionModel::kAuto;  ///< auto = choose H or E per frame pair by the score ratio below
@@ -80,6 +93,9 @@ struct MotionConfig {
   double homography_score_ratio = 0.45;    ///< auto: pick H when S_H / (S_H + S_F) > this (ORB-SLAM R_H)
   int min_inliers = 30;                    ///< fewer RANSAC inliers -> the frame pair is rejected
   double min_parallax_deg = 1.0;           ///< median triangulation angle needed to trust a two-view pose
+  /// Homography two-fold ambiguity prior; none by default (a wrong prior picks the wrong decomposition, see
+  /// config/default.yaml).
+  PlaneNormalPrior plane_normal_prior = PlaneNormalPrior::kNone;
 };
 
 enum class KeyframeMode {
@@ -169,6 +185,7 @@ inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b);
 
 /// YAML spelling of the enum values ("fundamental", "empty_cells", ...).
 const char* toString(MotionModel v);
+const char* toString(PlaneNormalPrior v);
 const char* toString(KeyframeMode v);
 const char* toString(RobustLoss v);
 const char* toString(TrajectoryMode v);

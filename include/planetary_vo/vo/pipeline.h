@@ -65,7 +65,7 @@ class Pipeline {
   void setCamera(const PinholeCamera& camera);
 
   /// Expected ground-plane normal in the camera (pointing away from it) that decides the homography's
-  /// two-fold ambiguity; +z (nadir camera) by default, zero = no prior.
+  /// two-fold ambiguity; overrides motion.plane_normal_prior of the config (default none), zero = no prior.
   void setPriorPlaneNormal(const Eigen::Vector3d& normal_cam);
 
   /// World positions and observation counts of the current (windowed) map points.
