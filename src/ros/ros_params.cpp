@@ -92,7 +92,6 @@ NodeletParams loadNodeletParams(const ros::NodeHandle& nh) {
   nh.param("max_frame_gap_factor", p.max_frame_gap_factor, p.max_frame_gap_factor);
   nh.param("min_rate_hz", p.min_rate_hz, p.min_rate_hz);
   nh.param("max_rate_hz", p.max_rate_hz, p.max_rate_hz);
-  nh.param("plane_prior", p.plane_prior, p.plane_prior);
   if (p.queue_size < 1) p.queue_size = 1;
   return p;
 }

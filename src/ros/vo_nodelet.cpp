@@ -231,9 +231,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   }
 
   std::unique_ptr<Pipeline> makePipeline(const VoConfig& config, const PinholeCamera& camera) {
-    auto pipeline = std::make_unique<Pipeline>(config, camera);
-    if (params_.plane_prior) pipeline->setPriorPlaneNormal(Eigen::Vector3d::UnitZ());
-    return pipeline;
+    // The homography's plane prior comes from the configuration (~motion/plane_normal_prior), like every other
+    // pipeline setting: one default, in the core struct.
+    return std::make_unique<Pipeline>(config, camera);
   }
 
   /// Between two frames: a changed configuration rebuilds the pipeline, attached to the last pose (the new

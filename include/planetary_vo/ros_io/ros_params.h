@@ -45,7 +45,6 @@ struct NodeletParams {
   double max_frame_gap_factor = 3.0;  ///< ~max_frame_gap_factor: gap > this x median period = dropped frames
   double min_rate_hz = 1.0;           ///< ~min_rate_hz, ~max_rate_hz: vo/odometry frequency diagnostic bounds
   double max_rate_hz = 1000.0;
-  bool plane_prior = true;  ///< ~plane_prior: nadir-camera ground-plane prior (+z) for the homography
 };
 NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh);
 
