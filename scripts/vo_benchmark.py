@@ -140,10 +140,20 @@ def main():
             rows.append(row)
             print(format_row(row), flush=True)
 
+    # Rows of sequences not run this time are kept from earlier runs into the same --output folder, so that a
+    # long benchmark can be run a few sequences at a time.
+    results_path = os.path.join(args.output, "results.json")
+    run_now = {(r["sequence"], r["config"]) for r in rows}
+    if os.path.exists(results_path):
+        with open(results_path) as f:
+            rows += [r for r in json.load(f) if (r["sequence"], r["config"]) not in run_now and "size" in r]
+    order = LUNAR_SEQUENCES + ["kitti_clip_turn"]
+    rows.sort(key=lambda r: (order.index(r["sequence"]) if r["sequence"] in order else len(order),
+                             CONFIGS.index(r["config"]) if r["config"] in CONFIGS else len(CONFIGS)))
     table = format_table(rows, args)
     print()
     print(table)
-    with open(os.path.join(args.output, "results.json"), "w") as f:
+    with open(results_path, "w") as f:
         json.dump(rows, f, indent=1)
     if args.write_docs:
         write_docs(table, rows, args)
