@@ -47,14 +47,7 @@ void writeMatrix(std::ostream& out, const std::string& key, int rows, int cols,
 }  // namespace
 
 PinholeCamera readCameraInfoYaml(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw DatasetError("cannot open " + path);
-  } catch (const YAML::Exception& e) {
-    throw DatasetError(path + ": not valid YAML: " + e.what());
-  }
+  const YAML::Node root = loadYamlFile(path);
   try {
     if (!root["image_width"] || !root["image_height"])
       throw DatasetError(path + ": missing 'image_width' or 'image_height'");

@@ -150,5 +150,16 @@ std::string readWholeFile(const std::string& path) {
   return text.str();
 }
 
+YAML::Node loadYamlFile(const std::string& path) {
+  try {
+    return YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw DatasetError("cannot open " + path);
+  } catch (const YAML::Exception& e) {
+    throw DatasetError(path + ": not valid YAML: " + e.what());
+  }
+}
+
 }  // namespace dataset_internal
+
 }  // namespace planetary_vo

@@ -2,6 +2,7 @@
 /// @file dataset_internal.h
 /// Helpers shared by the dataset readers and writer (not installed, not part of the public API).
 
+#include <yaml-cpp/yaml.h>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,9 @@ std::string baseName(const std::string& path);
 cv::Size imageSize(const std::string& path);
 /// Reads the whole file as text; throws DatasetError if it cannot be opened.
 std::string readWholeFile(const std::string& path);
+
+/// Parses a YAML file; a missing file or bad YAML becomes a DatasetError naming the file.
+YAML::Node loadYamlFile(const std::string& path);
 
 }  // namespace dataset_internal
 

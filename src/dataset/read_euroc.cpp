@@ -30,14 +30,7 @@ std::vector<double> yamlDoubles(const std::string& path, const YAML::Node& node,
 }
 
 EurocCamera readSensorYaml(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw DatasetError("cannot open " + path);
-  } catch (const YAML::Exception& e) {
-    throw DatasetError(path + ": not valid YAML: " + e.what());
-  }
+  const YAML::Node root = loadYamlFile(path);
   try {
     const std::vector<double> intrinsics = yamlDoubles(path, root, "intrinsics");  // fu fv cu cv
     const std::vector<double> resolution = yamlDoubles(path, root, "resolution");  // width height
