@@ -1,6 +1,7 @@
 /// Planarity detection: the H-vs-F score says planar for planar scenes and non-planar for spread depths.
 
 #include <gtest/gtest.h>
+#include "unit/geometry/geometry_test_scene.h"
 
 #include "planetary_vo/geometry/model_selection.h"
 #include "planetary_vo/geometry/synthetic_scene.h"
@@ -8,16 +9,7 @@
 namespace planetary_vo {
 namespace {
 
-SyntheticTwoViewScene scene(double baseline, double spread, double rotation_deg, double noise,
-                            unsigned seed) {
-  SyntheticSceneConfig c;
-  c.baseline = baseline;
-  c.depth_spread = spread;
-  c.rotation_deg = rotation_deg;
-  c.noise_px = noise;
-  c.seed = seed;
-  return makeSyntheticScene(c);
-}
+using test::scene;
 
 TEST(ModelSelection, PlanarSceneChoosesHomography) {
   for (double baseline : {30.0, 100.0})

@@ -4,6 +4,7 @@
 /// far below what a sign, frame or decomposition bug produces (tens of degrees).
 
 #include <gtest/gtest.h>
+#include "unit/geometry/geometry_test_scene.h"
 
 #include <algorithm>
 #include <vector>
@@ -16,16 +17,7 @@
 namespace planetary_vo {
 namespace {
 
-SyntheticTwoViewScene scene(double baseline, double spread, double rotation_deg, double noise,
-                            unsigned seed) {
-  SyntheticSceneConfig c;
-  c.baseline = baseline;
-  c.depth_spread = spread;
-  c.rotation_deg = rotation_deg;
-  c.noise_px = noise;
-  c.seed = seed;
-  return makeSyntheticScene(c);
-}
+using test::scene;
 
 double rotErr(const Eigen::Matrix3d& R, const SyntheticTwoViewScene& s) {
   return rotationAngleDeg(R * s.T_c2_c1.linear().transpose());
