@@ -106,6 +106,7 @@ void trackerFields(C& c, V& v) {
   v("epsilon_px", c.epsilon_px, 1e-6, 10.0);
   v("fb_max_error_px", c.fb_max_error_px, 0.0, 100.0);
   v("border_px", c.border_px, 0, 1000);
+  v("predict_flow", c.predict_flow);
   v.enumeration("replenish_strategy", c.replenish_strategy);
   v("replenish_cell_min_features", c.replenish_cell_min_features, 1, 10000);
   v("min_tracked_features", c.min_tracked_features, 0, 100000);

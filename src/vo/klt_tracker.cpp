@@ -49,20 +49,59 @@ void KltTracker::buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid
                               cv::BORDER_CONSTANT, false);
 }
 
-void KltTracker::trackPoints(const std::vector<cv::Point2f>& prev_px, TrackingResult* result) {
+void KltTracker::predictPositions() {
+  // Median image motion of the tracks that have one: the guess for features detected in the last frame.
+  flow_scratch_.clear();
+  for (const FeatureTrack& t : tracks_)
+    if (t.age_frames > 0) flow_scratch_.push_back(t.px.x - t.prev_px.x);
+  const size_t n_moving = flow_scratch_.size();
+  cv::Point2f median_flow(0.f, 0.f);
+  if (n_moving > 0) {
+    std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + n_moving / 2, flow_scratch_.end());
+    median_flow.x = flow_scratch_[n_moving / 2];
+    flow_scratch_.clear();
+    for (const FeatureTrack& t : tracks_)
+      if (t.age_frames > 0) flow_scratch_.push_back(t.px.y - t.prev_px.y);
+    std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + n_moving / 2, flow_scratch_.end());
+    median_flow.y = flow_scratch_[n_moving / 2];
+  }
+  const float x_max = static_cast<float>(image_size_.width - 1);
+  const float y_max = static_cast<float>(image_size_.height - 1);
+  guess_px_.resize(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    const FeatureTrack& t = tracks_[i];
+    const cv::Point2f flow = t.age_frames > 0 ? t.px - t.prev_px : median_flow;
+    // A guess outside the image would start LK on padding; the border check drops tracks that really leave.
+    guess_px_[i] = cv::Point2f(std::min(std::max(t.px.x + flow.x, 0.f), x_max),
+                               std::min(std::max(t.px.y + flow.y, 0.f), y_max));
+  }
+}
+
+void KltTracker::trackPoints(const std::vector<cv::Point2f>& prev_px,
+                             const std::vector<cv::Point2f>* guess_px, TrackingResult* result) {
   const size_t n = prev_px.size();
   keep_.assign(n, 0);
   if (n == 0) return;
+  int flags = 0;
+  if (guess_px != nullptr) {
+    curr_px_ = *guess_px;
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
   cv::calcOpticalFlowPyrLK(prev_pyramid_, curr_pyramid_, prev_px, curr_px_, lk_status_, lk_error_, win_size_,
-                           config_.pyramid_levels, criteria_, 0, config_.min_eigen_threshold);
+                           config_.pyramid_levels, criteria_, flags, config_.min_eigen_threshold);
   const bool fb_check = config_.fb_max_error_px > 0.0;
   if (fb_check) {
-    // Backward pass from the forward result, started where the forward pass ended (not at the original
-    // position: started there, LK on an unmatched window barely moves and "comes back" by construction). A
-    // point that LK dragged onto a different structure (occlusion, shadow change, repeated texture) does not
-    // return.
+    // Backward pass from the forward result, started where the forward pass ended minus the guessed motion
+    // (not at the original position: started there, LK on an unmatched window barely moves and "comes
+    // back" by construction; LK's own refinement away from the guess is what is checked). A point that LK
+    // dragged onto a different structure (occlusion, shadow change, repeated texture) does not return.
+    if (guess_px != nullptr) {
+      back_px_.resize(n);
+      for (size_t i = 0; i < n; ++i) back_px_[i] = curr_px_[i] - ((*guess_px)[i] - prev_px[i]);
+    }
     cv::calcOpticalFlowPyrLK(curr_pyramid_, prev_pyramid_, curr_px_, back_px_, back_status_, lk_error_,
-                             win_size_, config_.pyramid_levels, criteria_, 0, config_.min_eigen_threshold);
+                             win_size_, config_.pyramid_levels, criteria_, flags,
+                             config_.min_eigen_threshold);
   }
   const float border = static_cast<float>(config_.border_px);
   const float x_max = static_cast<float>(image_size_.width - 1) - border;
@@ -118,7 +157,8 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     const int64 t_lk = cv::getTickCount();
     prev_px_.clear();
     for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
-    trackPoints(prev_px_, &result);
+    if (config_.predict_flow) predictPositions();
+    trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, &result);
     size_t kept = 0;
     for (size_t i = 0; i < tracks_.size(); ++i) {
       if (!keep_[i]) continue;
@@ -145,7 +185,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
       prev_px_.clear();
       for (const cv::KeyPoint& kp : fresh) prev_px_.push_back(kp.pt);
       TrackingResult restart_losses;  // losses of the fresh features are not losses of tracks
-      trackPoints(prev_px_, &restart_losses);
+      trackPoints(prev_px_, nullptr, &restart_losses);
       for (size_t i = 0; i < fresh.size(); ++i) {
         if (!keep_[i]) continue;
         FeatureTrack t;

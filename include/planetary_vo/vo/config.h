@@ -65,6 +65,10 @@ struct TrackerConfig {
   double fb_max_error_px =
       1.0;            ///< forward-backward round-trip error above which a track is dropped; 0 = off
   int border_px = 1;  ///< a track closer than this to the image border is dropped
+  /// Start LK at a predicted position instead of the previous one: the track's own last image motion
+  /// (constant image velocity), or the median motion of the others for a new feature. Keeps LK inside its
+  /// convergence basin when the whole image moves by tens of pixels (a turn, a fast pass over the ground).
+  bool predict_flow = true;
   ReplenishStrategy replenish_strategy = ReplenishStrategy::kEmptyCells;
   int replenish_cell_min_features =
       1;                           ///< kEmptyCells: a cell holding fewer tracks than this gets new features
@@ -139,7 +143,8 @@ struct BundleAdjustmentConfig {
   RobustLoss robust_loss = RobustLoss::kHuber;
   double robust_loss_scale_px = 2.0;  ///< reprojection error where the robust loss starts to flatten
   int max_iterations = 20;            ///< Ceres iterations per adjustment
-  bool asynchronous = false;          ///< run in a background thread; false keeps runs reproducible
+  bool asynchronous =
+      true;  ///< run in a background thread so tracking never waits; false = reproducible runs
 };
 
 enum class TrajectoryMode {

@@ -65,7 +65,11 @@ class KltTracker {
  private:
   void buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const;
   /// Forward LK prev -> curr, then backward; fills status_ (true = keep) and curr_px_, counting the losses.
-  void trackPoints(const std::vector<cv::Point2f>& prev_px, TrackingResult* result);
+  /// With `guess_px`, LK starts there (and the backward pass at curr minus the guessed motion).
+  void trackPoints(const std::vector<cv::Point2f>& prev_px, const std::vector<cv::Point2f>* guess_px,
+                   TrackingResult* result);
+  /// Where each live track is expected in the next image (TrackerConfig::predict_flow) into guess_px_.
+  void predictPositions();
   void addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t frame);
 
   TrackerConfig config_;
@@ -81,7 +85,8 @@ class KltTracker {
 
   // Reused buffers: the pyramids swap roles every frame, so their levels are allocated once.
   std::vector<cv::Mat> prev_pyramid_, curr_pyramid_;
-  std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_;
+  std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_, guess_px_;
+  std::vector<float> flow_scratch_;
   std::vector<uchar> lk_status_, back_status_, keep_;
   std::vector<float> lk_error_;
 };

@@ -17,7 +17,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -35,15 +38,19 @@ struct Options {
   std::string config_path;
   std::string output_path;
   long max_frames = -1;
+  std::string frame_log_path;
   bool quiet = false;
 };
 
 void usage(std::ostream& out) {
-  out << "usage: vo_run --dataset DIR --output traj.txt [--config YAML] [--max-frames N] [--quiet]\n"
+  out << "usage: vo_run --dataset DIR --output traj.txt [--config YAML] [--max-frames N] [--frame-log FILE]\n"
+         "              [--quiet]\n"
          "  --dataset DIR     planetary_vo, KITTI odometry, EuRoC or TUM RGB-D folder\n"
          "  --config YAML     VO configuration (default: built-in defaults = config/default.yaml)\n"
          "  --output FILE     TUM trajectory (t tx ty tz qx qy qz qw, T_world_cam) of the processed frames\n"
          "  --max-frames N    stop after N input frames\n"
+         "  --frame-log FILE  one line per processed frame: state, counts, model, keyframe, time and the\n"
+         "                    pipeline's message (why a frame got no pose, why it became a keyframe)\n"
          "  --quiet           no progress and no summary\n";
 }
 
@@ -73,6 +80,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
         std::cerr << "vo_run: --max-frames needs a positive integer, got '" << text << "'\n";
         return false;
       }
+    } else if (arg == "--frame-log") {
+      if (!value(&options->frame_log_path)) return false;
     } else if (arg == "--quiet") {
       options->quiet = true;
     } else if (arg == "--help" || arg == "-h") {
@@ -115,6 +124,13 @@ int main(int argc, char** argv) {
                                   : dataset.size();
     const bool progress = !options.quiet && isatty(STDERR_FILENO);
 
+    std::ofstream frame_log;
+    if (!options.frame_log_path.empty()) {
+      frame_log.open(options.frame_log_path);
+      if (!frame_log) throw std::runtime_error("cannot write " + options.frame_log_path);
+      frame_log
+          << "# frame timestamp_s state tracked new inliers map_points keyframe model total_ms message\n";
+    }
     Trajectory trajectory;
     std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
     std::array<int, 4> state_counts{};
@@ -131,6 +147,12 @@ int main(int argc, char** argv) {
       mapping_ms.push_back(r.times.mapping_ms);
       ba_ms.push_back(r.times.ba_ms);
       total_ms.push_back(r.times.total_ms);
+      if (frame_log.is_open())
+        frame_log << r.frame_index << ' ' << std::fixed << std::setprecision(6) << r.timestamp_s << ' '
+                  << toString(r.state) << ' ' << r.num_tracked << ' ' << r.num_new_features << ' '
+                  << r.num_inliers << ' ' << r.num_map_points << ' ' << (r.is_keyframe ? 1 : 0) << ' '
+                  << toString(r.motion) << ' ' << std::setprecision(2) << r.times.total_ms << ' '
+                  << (r.message.empty() ? "-" : r.message) << '\n';
       if (r.state != TrackingState::kInitialising) trajectory.push_back({r.timestamp_s, r.T_world_cam});
       if (progress) {
         std::fprintf(stderr, "\r%zu/%zu  %-12s %4d tracked %4d inliers %5d points %5.1f ms", i + 1,

@@ -82,6 +82,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.tracker.epsilon_px, 0.03);
   EXPECT_DOUBLE_EQ(c.tracker.fb_max_error_px, 0.5);
   EXPECT_EQ(c.tracker.border_px, 3);
+  EXPECT_FALSE(c.tracker.predict_flow);
   EXPECT_EQ(c.tracker.replenish_strategy, ReplenishStrategy::kRestartBelowMin);
   EXPECT_EQ(c.tracker.replenish_cell_min_features, 2);
   EXPECT_EQ(c.tracker.min_tracked_features, 80);
@@ -118,7 +119,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.bundle_adjustment.robust_loss, RobustLoss::kCauchy);
   EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_px, 1.5);
   EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
-  EXPECT_TRUE(c.bundle_adjustment.asynchronous);
+  EXPECT_FALSE(c.bundle_adjustment.asynchronous);
 
   EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
   EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);

@@ -5,7 +5,10 @@
 #include <cmath>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <vector>
+
+#include <iostream>
 
 #include <gtest/gtest.h>
 
@@ -89,6 +92,57 @@ TEST(KltTracker, SmallRotationAndScaleAreRecovered) {
   cv::Matx23d A = cv::getRotationMatrix2D(centre, 0.4, 1.003);
   A(0, 2) += 0.4;
   expectAccurateTracking(A, 13);
+}
+
+/// Views of one plane-wave texture moving right and up by `shift_px[k]` in frame k (the image content of a
+/// turning camera), tracked with one pyramid level so that LK alone reaches only about 10 px on this texture.
+std::vector<int> trackedPerStep(bool predict_flow, const std::vector<double>& shift_px,
+                                double* worst_error_px) {
+  TrackerConfig config;
+  config.pyramid_levels = 1;
+  config.predict_flow = predict_flow;
+  KltTracker tracker(config, DetectorConfig());
+  std::vector<int> tracked;
+  *worst_error_px = 0.0;
+  for (size_t k = 0; k < shift_px.size(); ++k) {
+    const double s = shift_px[k];
+    // Pixel q shows the texture at q - (s, -s/2): the content moved by (s, -s/2).
+    const cv::Mat image = test::toGray(test::planeWaveTexture(kSize, 21, cv::Matx23d(1, 0, -s, 0, 1, s / 2)));
+    const TrackingResult r = tracker.track(image);
+    if (k == 0) continue;
+    tracked.push_back(r.num_tracked);
+    const double step = s - shift_px[k - 1];
+    for (size_t i = 0; i < r.correspondences.size(); ++i) {
+      const cv::Point2f truth = r.correspondences.prev_px[i] + cv::Point2f(step, -step / 2);
+      if (interior(r.correspondences.prev_px[i]) && interior(truth))
+        *worst_error_px =
+            std::max(*worst_error_px, static_cast<double>(cv::norm(r.correspondences.curr_px[i] - truth)));
+    }
+  }
+  return tracked;
+}
+
+TEST(KltTracker, PredictedFlowFollowsAnAcceleratingImageMotion) {
+  // Steps of 6, 12, 18 and 24 px (x, and half that in y) as the turn speeds up: the first is within LK's
+  // reach from the old position; for the others the tracks' last motion leaves a 6 px residual.
+  const std::vector<double> shifts{0, 6, 18, 36, 60};
+  double worst_predicted = 0.0, worst_plain = 0.0;
+  const std::vector<int> predicted = trackedPerStep(true, shifts, &worst_predicted);
+  const std::vector<int> plain = trackedPerStep(false, shifts, &worst_plain);
+  for (size_t k = 0; k < predicted.size(); ++k)
+    std::cout << "step " << k + 1 << ": " << predicted[k] << " tracked with prediction, " << plain[k]
+              << " without\n";
+  std::cout << "worst interior error: " << worst_predicted << " px with prediction, " << worst_plain
+            << " px without\n";
+  ASSERT_EQ(predicted.size(), 4u);
+  for (size_t k = 0; k < predicted.size(); ++k) {
+    SCOPED_TRACE("step " + std::to_string(k + 1));
+    // Features near the leading edge leave the image: a 24 px step over 640 px loses a few per cent.
+    EXPECT_GE(predicted[k], 250) << "with prediction";
+  }
+  EXPECT_LT(worst_predicted, 0.1);
+  // Precondition that makes the test meaningful: without prediction the last step is out of LK's reach.
+  EXPECT_LT(plain.back(), predicted.back() / 2) << "without prediction " << plain.back() << " tracked";
 }
 
 TEST(KltTracker, ForwardBackwardCheckRemovesTracksInAChangedRegion) {

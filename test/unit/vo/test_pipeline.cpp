@@ -120,8 +120,9 @@ TEST(Pipeline, MapModeTracksAPlanarDescent) {
     if (first_pose < 0 && r.state != TrackingState::kInitialising)
       first_pose = static_cast<int>(r.frame_index);
     // Never worse than recovered once initialised (and on this clean sequence, never recovering at all).
-    if (first_pose >= 0)
+    if (first_pose >= 0) {
       EXPECT_EQ(r.state, TrackingState::kTracking) << "frame " << r.frame_index << ": " << r.message;
+    }
     if (r.state == TrackingState::kTracking) {
       EXPECT_GT(r.num_map_points, 30);
       EXPECT_LE(r.num_keyframes, VoConfig().map.window_keyframes);
@@ -141,17 +142,20 @@ TEST(Pipeline, MapModeTracksAPlanarDescent) {
   EXPECT_GE(eval.num_associated, 45u);
   EXPECT_LT(eval.ate_rmse_percent, 1.0)
       << "ATE " << eval.ate_m.rmse << " m over " << eval.gt_path_length_m << " m";
-  for (const RelativeError& rpe : eval.rpe)
-    if (rpe.delta_unit == "frames" && rpe.delta == 10) EXPECT_LT(rpe.rotation_deg.rmse, 0.5);
+  for (const RelativeError& rpe : eval.rpe) {
+    if (rpe.delta_unit == "frames" && rpe.delta == 10) {
+      EXPECT_LT(rpe.rotation_deg.rmse, 0.5);
+    }
+  }
 }
 
-TEST(Pipeline, AsynchronousBundleAdjustmentAlsoTracks) {
+TEST(Pipeline, InlineBundleAdjustmentAlsoTracks) {
   VoConfig config;
-  config.bundle_adjustment.asynchronous = true;
+  config.bundle_adjustment.asynchronous = false;
   const SequenceRun run = runSequence(config, 40);
   const TrajectoryEvaluation eval =
       evaluateTrajectory(run.ground_truth, estimated(run, true), EvaluationOptions());
-  std::cout << "async BA: Sim(3) ATE " << eval.ate_rmse_percent << " %\n";
+  std::cout << "inline BA: Sim(3) ATE " << eval.ate_rmse_percent << " %\n";
   EXPECT_GE(eval.num_associated, 28u);
   EXPECT_LT(eval.ate_rmse_percent, 2.0);
 }
@@ -227,8 +231,9 @@ TEST(Pipeline, RecoversFromABlackoutWithoutJumping) {
       EXPECT_GT(r.scale_confidence, 0.0);
     }
     if (recovered > 0 && r.state == TrackingState::kTracking) ++tracking_after;
-    if (static_cast<int>(i) >= blackout_begin && static_cast<int>(i) < blackout_end)
+    if (static_cast<int>(i) >= blackout_begin && static_cast<int>(i) < blackout_end) {
       EXPECT_EQ(r.state, TrackingState::kLost) << "frame " << i;
+    }
   }
   EXPECT_EQ(recovered, 1);
   EXPECT_GE(lost, blackout_end - blackout_begin);
