@@ -1,8 +1,11 @@
 #include "planetary_vo/vo/initializer.h"
 
 #include <algorithm>
+#include <cmath>
+#include <string>
 
 #include "planetary_vo/geometry/model_selection.h"
+#include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/geometry/triangulation.h"
 #include "planetary_vo/geometry/two_view_geometry.h"
 
@@ -32,6 +35,22 @@ RelativeMotion fromTwoView(const TwoViewResult& r) {
   m.median_parallax_deg = r.quality.median_parallax_deg;
   m.resolved_by_prior = r.resolved_by_prior;
   return m;
+}
+
+// Two motions are rivals when they differ by more than noise: the essential matrix and the right homography
+// decomposition agree to a fraction of a degree in rotation and a few degrees in translation direction;
+// the planar twin differs by degrees in rotation or tens of degrees in direction.
+constexpr double kRivalRotationDeg = 0.5;
+constexpr double kRivalTranslationDeg = 15.0;
+// A rival triangulating at least this share of the best hypothesis' points makes the pair ambiguous
+// (ORB-SLAM's 0.75 for its homography / fundamental reconstructions).
+constexpr double kMaxRivalShare = 0.75;
+
+bool isDifferentMotion(const Pose& a, const Pose& b) {
+  const double rotation_deg = rotationAngleDeg(a.linear().transpose() * b.linear());
+  const Eigen::Vector3d ta = a.translation().normalized(), tb = b.translation().normalized();
+  const double translation_deg = std::atan2(ta.cross(tb).norm(), ta.dot(tb)) * 180.0 / M_PI;
+  return rotation_deg > kRivalRotationDeg || translation_deg > kRivalTranslationDeg;
 }
 
 }  // namespace
@@ -82,40 +101,147 @@ RelativeMotion Initializer::estimateMotion(const std::vector<cv::Point2d>& px1,
   return m;
 }
 
+std::vector<RelativeMotion> Initializer::motionHypotheses(const std::vector<cv::Point2d>& px1,
+                                                          const std::vector<cv::Point2d>& px2,
+                                                          const Eigen::Matrix3d& K,
+                                                          std::string* reason) const {
+  std::vector<RelativeMotion> hypotheses;
+  const TwoViewOptions options = twoViewOptions();
+  auto addEpipolar = [&](const TwoViewResult& r) {
+    if (r.valid) hypotheses.push_back(fromTwoView(r));
+  };
+  // Both physically valid decompositions of a homography whose only fault is that the points' in-front
+  // counts cannot tell them apart: triangulation below may (the wrong one puts many points behind a camera
+  // or at a parallax too small to triangulate). A decomposition chosen by the plane-normal prior stays alone:
+  // the prior is the caller's knowledge.
+  auto addHomography = [&](const TwoViewResult& r) {
+    if (r.valid && (r.resolved_by_prior || r.homography_candidates.size() < 2)) {
+      hypotheses.push_back(fromTwoView(r));
+      return;
+    }
+    const TwoViewQualityThresholds& th = options.quality;
+    const bool only_ambiguous = r.homography_candidates.size() >= 2 && r.num_inliers >= th.min_inliers &&
+                                r.quality.inlier_ratio >= th.min_inlier_ratio &&
+                                r.quality.median_parallax_deg >= th.min_median_parallax_deg;
+    if (!r.valid && !only_ambiguous) return;
+    for (const HomographyCandidate& c : r.homography_candidates) {
+      RelativeMotion m = fromTwoView(r);
+      m.valid = true;
+      m.reason.clear();
+      m.T_c2_c1_unit = Pose::Identity();
+      m.T_c2_c1_unit.linear() = c.R_c2_c1;
+      m.T_c2_c1_unit.translation() = c.t_c2_c1_unit;
+      hypotheses.push_back(m);
+    }
+  };
+  if (px1.size() != px2.size() || static_cast<int>(px1.size()) < std::max(8, motion_.min_inliers)) {
+    *reason = "too few correspondences (" + std::to_string(px1.size()) + ")";
+    return hypotheses;
+  }
+  TwoViewResult first, second;
+  switch (motion_.model) {
+    case MotionModel::kFundamental:
+      first = estimateFundamental(px1, px2, K, options);
+      addEpipolar(first);
+      break;
+    case MotionModel::kEssential:
+      first = estimateEssential(px1, px2, K, options);
+      addEpipolar(first);
+      break;
+    case MotionModel::kHomography:
+      first = estimateHomography(px1, px2, K, options);
+      addHomography(first);
+      break;
+    case MotionModel::kAuto: {
+      const ModelSelection selection =
+          selectTwoViewModel(px1, px2, K, options, motion_.homography_score_ratio);
+      first = selection.essential;
+      second = selection.homography;
+      addEpipolar(first);
+      // The homography's decompositions compete only where the score says the views look planar; elsewhere
+      // (a road plane in a street scene) a homography explains a subset of the points and its motion is not
+      // to be trusted over a valid essential matrix, so it is only the fallback, as in estimateMotion().
+      if (selection.homography_chosen)
+        addHomography(second);
+      else if (hypotheses.empty() && second.valid)
+        hypotheses.push_back(fromTwoView(second));
+      break;
+    }
+  }
+  if (hypotheses.empty()) {
+    *reason = fromTwoView(first).reason;
+    if (motion_.model == MotionModel::kAuto) *reason += "; " + fromTwoView(second).reason;
+  }
+  return hypotheses;
+}
+
 Initialization Initializer::initialize(const std::vector<uint64_t>& track_ids,
                                        const std::vector<cv::Point2d>& px1,
                                        const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K) const {
   Initialization init;
-  init.motion = estimateMotion(px1, px2, K);
-  if (!init.motion.valid) {
-    init.reason = init.motion.reason;
+  std::string reason;
+  const std::vector<RelativeMotion> hypotheses = motionHypotheses(px1, px2, K, &reason);
+  if (hypotheses.empty()) {
+    init.reason = reason;
+    init.motion.reason = reason;
     return init;
-  }
-  std::vector<cv::Point2d> in1, in2;
-  std::vector<uint64_t> in_ids;
-  for (size_t i = 0; i < px1.size(); ++i) {
-    if (i < init.motion.inlier_mask.size() && init.motion.inlier_mask[i] == 0) continue;
-    in1.push_back(px1[i]);
-    in2.push_back(px2[i]);
-    in_ids.push_back(track_ids[i]);
   }
   TriangulationOptions tri_options;
   tri_options.max_reprojection_error_px = map_.max_reprojection_error_px;
   tri_options.min_parallax_deg = map_.min_triangulation_parallax_deg;
-  const TriangulationResult tri = triangulatePoints(in1, in2, K, init.motion.T_c2_c1_unit, tri_options);
+
+  // Every hypothesis is judged by how many of its inliers it can triangulate (in front of both cameras,
+  // within the reprojection bound, with enough parallax), as ORB-SLAM judges its initialisation candidates.
+  // On the nearly planar ground seen from altitude, the essential matrix and the homography each admit a
+  // second, wrong motion that explains the pixels as well as the right one; it triangulates far fewer points.
+  struct Scored {
+    size_t index;
+    std::vector<size_t> inliers;
+    TriangulationResult tri;
+  };
+  std::vector<Scored> scored;
+  for (size_t h = 0; h < hypotheses.size(); ++h) {
+    Scored s{h, {}, {}};
+    std::vector<cv::Point2d> in1, in2;
+    for (size_t i = 0; i < px1.size(); ++i) {
+      if (i < hypotheses[h].inlier_mask.size() && hypotheses[h].inlier_mask[i] == 0) continue;
+      s.inliers.push_back(i);
+      in1.push_back(px1[i]);
+      in2.push_back(px2[i]);
+    }
+    s.tri = triangulatePoints(in1, in2, K, hypotheses[h].T_c2_c1_unit, tri_options);
+    scored.push_back(std::move(s));
+  }
+  std::sort(scored.begin(), scored.end(),
+            [](const Scored& a, const Scored& b) { return a.tri.num_valid > b.tri.num_valid; });
+  const Scored& best = scored.front();
+  init.motion = hypotheses[best.index];
+  for (size_t k = 1; k < scored.size(); ++k) {
+    const RelativeMotion& other = hypotheses[scored[k].index];
+    if (!isDifferentMotion(init.motion.T_c2_c1_unit, other.T_c2_c1_unit)) continue;
+    init.rival_points = scored[k].tri.num_valid;  // sorted: the first different one is the strongest
+    if (scored[k].tri.num_valid >= kMaxRivalShare * best.tri.num_valid) {
+      init.reason = "two different motions explain the views (" + std::to_string(best.tri.num_valid) +
+                    " and " + std::to_string(scored[k].tri.num_valid) +
+                    " points triangulated); waiting for more parallax";
+      return init;
+    }
+    break;
+  }
   std::vector<double> depths;
-  for (size_t i = 0; i < in1.size(); ++i) {
-    if (!tri.valid[i]) continue;
-    init.track_ids.push_back(in_ids[i]);
-    init.points_c1.push_back(tri.points_c1[i]);
-    init.px1.emplace_back(in1[i].x, in1[i].y);
-    init.px2.emplace_back(in2[i].x, in2[i].y);
-    depths.push_back(tri.points_c1[i].z());
+  for (size_t j = 0; j < best.inliers.size(); ++j) {
+    if (!best.tri.valid[j]) continue;
+    const size_t i = best.inliers[j];
+    init.track_ids.push_back(track_ids[i]);
+    init.points_c1.push_back(best.tri.points_c1[j]);
+    init.px1.emplace_back(px1[i].x, px1[i].y);
+    init.px2.emplace_back(px2[i].x, px2[i].y);
+    depths.push_back(best.tri.points_c1[j].z());
   }
   if (static_cast<int>(init.points_c1.size()) < motion_.min_inliers) {
-    init.reason = "only " + std::to_string(init.points_c1.size()) + " of " + std::to_string(in1.size()) +
-                  " inliers triangulated (parallax " + std::to_string(init.motion.median_parallax_deg) +
-                  " deg)";
+    init.reason = "only " + std::to_string(init.points_c1.size()) + " of " +
+                  std::to_string(best.inliers.size()) + " inliers triangulated (parallax " +
+                  std::to_string(init.motion.median_parallax_deg) + " deg)";
     return init;
   }
   std::nth_element(depths.begin(), depths.begin() + static_cast<std::ptrdiff_t>(depths.size() / 2),

@@ -143,8 +143,9 @@ struct BundleAdjustmentConfig {
   RobustLoss robust_loss = RobustLoss::kHuber;
   double robust_loss_scale_px = 2.0;  ///< reprojection error where the robust loss starts to flatten
   int max_iterations = 20;            ///< Ceres iterations per adjustment
-  bool asynchronous =
-      true;  ///< run in a background thread so tracking never waits; false = reproducible runs
+  /// Adjust in a background thread while the next image is tracked (applied before that frame's pose, so
+  /// results do not depend on timing); false = inline, within the keyframe's own processing.
+  bool asynchronous = true;
 };
 
 enum class TrajectoryMode {

@@ -7,9 +7,12 @@
 ///
 /// The homography's two-fold ambiguity (peer-results.md: ORB-SLAM2 never initialised on planar descent
 /// imagery) is resolved in this order: in-front counts when they differ clearly, then the expected plane
-/// normal (for a down-looking lander camera the ground lies along the camera's +z), and, when neither
-/// decides, the essential matrix is tried instead. A pose that no check can vouch for is rejected, never
-/// guessed.
+/// normal if one is configured, and, when neither decides, estimateMotion() tries the essential matrix
+/// instead. initialize() goes further, as ORB-SLAM does: both decompositions and the essential matrix are
+/// triangulated, and the motion that triangulates clearly the most points wins (on ground seen obliquely
+/// the wrong twin triangulates far fewer; the essential matrix on near-planar ground can land on that twin
+/// too, which is what made the Main Brake 30-degree sequence fail from a slightly different set of tracks).
+/// A pose that no check can vouch for is rejected, never guessed.
 
 #include <cstdint>
 #include <string>
@@ -46,6 +49,7 @@ struct Initialization {
   std::vector<Eigen::Vector3d> points_c1;  ///< in camera 1, unit baseline
   std::vector<Eigen::Vector2d> px1, px2;   ///< their ideal pixels in both views
   double median_depth = 0.0;               ///< of points_c1, in baselines
+  int rival_points = 0;  ///< points triangulated by the best clearly different motion hypothesis (0: none)
 };
 
 /// Two-view motion and map initialisation. Stateless apart from its settings; cheap to copy.
@@ -63,8 +67,10 @@ class Initializer {
   RelativeMotion estimateMotion(const std::vector<cv::Point2d>& px1, const std::vector<cv::Point2d>& px2,
                                 const Eigen::Matrix3d& K) const;
 
-  /// @brief estimateMotion(), then triangulation of its inliers; valid when the motion is valid and at least
-  ///        motion.min_inliers points pass the triangulation checks (depth, reprojection, parallax).
+  /// @brief Two-view map: every motion hypothesis (see motionHypotheses()) triangulates its inliers, and the
+  ///        one with the most points that pass the checks (in front, reprojection, parallax) wins, unless a
+  ///        clearly different motion triangulates at least 3/4 as many (ambiguous: rejected, wait for more
+  ///        parallax). Valid when at least motion.min_inliers points are triangulated.
   Initialization initialize(const std::vector<uint64_t>& track_ids, const std::vector<cv::Point2d>& px1,
                             const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K) const;
 
@@ -73,6 +79,12 @@ class Initializer {
 
  private:
   TwoViewOptions twoViewOptions() const;
+  /// The motions worth triangulating for a map: the configured model's estimate if it passes its checks, and
+  /// for a homography (alone or under auto) both decompositions when only their in-front counts tie.
+  /// Empty with `reason` set when there is none.
+  std::vector<RelativeMotion> motionHypotheses(const std::vector<cv::Point2d>& px1,
+                                               const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K,
+                                               std::string* reason) const;
 
   MotionConfig motion_;
   MapConfig map_;

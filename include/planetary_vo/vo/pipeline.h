@@ -19,8 +19,10 @@
 /// Pixels from the tracker are undistorted (PinholeCamera::undistortPixels) before any geometry.
 ///
 /// Threading: process(), reset() and setCamera() must be called from one thread. With
-/// bundle_adjustment.asynchronous the bundle adjustment runs in a worker thread owned by the pipeline; its
-/// result is applied at the start of a later process() call. mapPoints() reads the map of the calling thread.
+/// bundle_adjustment.asynchronous the bundle adjustment of a new keyframe runs in a worker thread owned by the
+/// pipeline while the next image is tracked (KLT); the next process() applies it after tracking and before
+/// estimating the pose, waiting if it is still running. So the adjustment is hidden behind the tracking of the
+/// next image, and the results do not depend on timing. mapPoints() reads the map of the calling thread.
 
 #include <cstdint>
 #include <memory>
