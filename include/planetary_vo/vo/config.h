@@ -96,7 +96,7 @@ struct MotionConfig {
   int ransac_max_iterations = 1000;        ///< RANSAC iteration cap
   double homography_score_ratio = 0.45;    ///< auto: pick H when S_H / (S_H + S_F) > this (ORB-SLAM R_H)
   int min_inliers = 30;                    ///< fewer RANSAC inliers -> the frame pair is rejected
-  double min_parallax_deg = 1.0;           ///< median triangulation angle needed to trust a two-view pose
+  double min_parallax_deg = 0.7;           ///< median triangulation angle needed to trust a two-view pose
   /// Homography two-fold ambiguity prior; none by default (a wrong prior picks the wrong decomposition, see
   /// config/default.yaml).
   PlaneNormalPrior plane_normal_prior = PlaneNormalPrior::kNone;
@@ -111,14 +111,14 @@ enum class KeyframeMode {
 struct KeyframeConfig {
   KeyframeMode mode = KeyframeMode::kParallax;
   int process_every_n_frames = 1;  ///< process one input frame out of n (thesis: 0.5 Hz from 30 Hz = 60)
-  double min_parallax_deg = 1.0;   ///< kParallax: median rotation-compensated parallax for a new keyframe
-  double min_track_ratio = 0.6;  ///< kParallax: new keyframe when fewer of the last keyframe's tracks survive
+  double min_parallax_deg = 3.0;   ///< kParallax: median rotation-compensated parallax for a new keyframe
+  double min_track_ratio = 0.8;  ///< kParallax: new keyframe when fewer of the last keyframe's tracks survive
   int max_interval_frames = 30;  ///< kParallax: a keyframe at least every this many processed frames
 };
 
 /// Sparse map of triangulated points (thesis Phase 2).
 struct MapConfig {
-  double min_triangulation_parallax_deg = 1.0;  ///< rays closer than this are not triangulated
+  double min_triangulation_parallax_deg = 0.7;  ///< rays closer than this are not triangulated
   double max_reprojection_error_px = 2.0;       ///< a new or refined point reprojecting worse is rejected
   int min_observations = 2;                     ///< keyframes that must see a point for it to be kept
   double cull_min_found_ratio = 0.25;           ///< culled when found / predicted-visible falls below this

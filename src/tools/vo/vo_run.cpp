@@ -99,6 +99,14 @@ bool parseArgs(int argc, char** argv, Options* options) {
   return true;
 }
 
+/// Resident set size of this process now (MB), from /proc/self/statm; 0 where that is unavailable.
+double residentMb() {
+  std::ifstream statm("/proc/self/statm");
+  long total_pages = 0, resident_pages = 0;
+  if (!(statm >> total_pages >> resident_pages)) return 0.0;
+  return static_cast<double>(resident_pages) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
 /// Value at quantile q (0..1) of `values` (copied: nearest-rank).
 double quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
@@ -134,12 +142,17 @@ int main(int argc, char** argv) {
     Trajectory trajectory;
     std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
     std::array<int, 4> state_counts{};
-    int keyframes = 0, processed = 0;
+    int keyframes = 0, processed = 0, max_map_points = 0;
+    // Memory after the first tenth of the frames against the end shows whether the windowed map keeps it
+    // flat.
+    double resident_mb_early = 0.0;
     for (size_t i = 0; i < num_frames; ++i) {
       const cv::Mat gray = dataset.loadImage(i);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
+      if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
       if (!r.processed) continue;
       ++processed;
+      max_map_points = std::max(max_map_points, r.num_map_points);
       ++state_counts[static_cast<size_t>(r.state)];
       keyframes += r.is_keyframe ? 1 : 0;
       tracking_ms.push_back(r.times.tracking_ms);
@@ -183,7 +196,11 @@ int main(int argc, char** argv) {
                     quantile(*stage.second, 0.99));
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
-      std::printf("peak memory: %.1f MB\n", static_cast<double>(usage_info.ru_maxrss) / 1024.0);
+      std::printf(
+          "peak memory: %.1f MB; resident %.1f MB after 10 %% of the frames, %.1f MB at the end; at most "
+          "%d map points\n",
+          static_cast<double>(usage_info.ru_maxrss) / 1024.0, resident_mb_early, residentMb(),
+          max_map_points);
       if (dataset.hasGroundTruth() && trajectory.size() >= 3) {
         try {
           const TrajectoryEvaluation eval = evaluateTrajectory(dataset.groundTruth(), trajectory, {});
