@@ -8,7 +8,14 @@
 /// pairs so far (alignTrajectories, sim3; the same as `vo_eval --align sim3` on the trajectories so far). The
 /// alignment is recomputed every ~align_every new estimated poses and on a ~align_period wall-clock timer
 /// when something arrived since; it is skipped (throttled log, nothing published) until there are 3 pairs
-/// that are not collinear.
+/// that are not collinear. Until then, a ground-truth pose that pairs with an estimate already received tries
+/// too: the two topics come over separate connections, so a ground-truth pose may arrive after its estimate
+/// (all of them may, on a loaded machine), and without the timer nothing else would align once the estimates
+/// have ended.
+///
+/// The outputs are latched (rviz or a recorder may subscribe later). Nothing is built while nobody
+/// subscribes; what was skipped is published when a subscriber connects, so the latched message is never out
+/// of date.
 ///
 /// Publishes (frame: the ground truth's header frame, or ~frame_id):
 ///   vo/path_aligned        nav_msgs/Path       every vo/pose so far, through the current Sim(3)
@@ -106,12 +113,18 @@ class AlignedPathNode {
         max_dt_s_(pnh.param("max_dt", 0.02)),
         alignment_(max_dt_s_) {
     if (!(max_dt_s_ > 0.0)) throw std::invalid_argument("~max_dt must be > 0 s");
-    path_pub_ = nh.advertise<nav_msgs::Path>("vo/path_aligned", 1, true);
+    // The connect callbacks run on the spinner like the message callbacks; a subscriber that connects
+    // between a skipped publish and the callback gets the stale latched message first, then the current one.
+    path_pub_ = nh.advertise<nav_msgs::Path>(
+        "vo/path_aligned", 1, [this](const ros::SingleSubscriberPublisher&) { onPathSubscriber(); },
+        ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
     ate_pub_ = nh.advertise<std_msgs::Float64>("vo/ate_m", 10, true);
     est_sub_ = nh.subscribe("vo/pose", 1000, &AlignedPathNode::onEstimate, this);
     gt_sub_ = nh.subscribe("ground_truth/pose", 1000, &AlignedPathNode::onGroundTruth, this);
     if (pnh.param("transform_map", true)) {
-      map_pub_ = nh.advertise<sensor_msgs::PointCloud2>("vo/map_points_aligned", 1, true);
+      map_pub_ = nh.advertise<sensor_msgs::PointCloud2>(
+          "vo/map_points_aligned", 1, [this](const ros::SingleSubscriberPublisher&) { onMapSubscriber(); },
+          ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
       map_sub_ = nh.subscribe("vo/map_points", 2, &AlignedPathNode::onMap, this);
     }
     reset_srv_ = pnh.advertiseService("reset", &AlignedPathNode::onReset, this);
@@ -124,12 +137,18 @@ class AlignedPathNode {
   void onGroundTruth(const geometry_msgs::PoseStampedConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (gt_frame_.empty()) gt_frame_ = msg->header.frame_id;
-    if (alignment_.addGroundTruth({msg->header.stamp.toSec(), fromPoseMsg(msg->pose)}))
-      changed_ = true;
-    else
+    const double t = msg->header.stamp.toSec();
+    if (!alignment_.addGroundTruth({t, fromPoseMsg(msg->pose)})) {
       ROS_WARN_THROTTLE(5,
                         "aligned_path_node: ground-truth stamp not increasing, pose ignored (call ~reset "
                         "after restarting the player or a bag)");
+      return;
+    }
+    changed_ = true;
+    // This pose came after an estimate it may pair with (see the file comment): while there is no alignment,
+    // try now rather than wait for an estimate that may never come.
+    const Trajectory& estimate = alignment_.estimate();
+    if (!alignment_.valid() && !estimate.empty() && t <= estimate.back().timestamp_s + max_dt_s_) realign();
   }
 
   void onEstimate(const geometry_msgs::PoseStampedConstPtr& msg) {
@@ -155,6 +174,16 @@ class AlignedPathNode {
     publishMap();
   }
 
+  void onPathSubscriber() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (path_skipped_) publishPath();
+  }
+
+  void onMapSubscriber() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (map_skipped_) publishMap();
+  }
+
   void onTimer(const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (changed_) realign();
@@ -168,6 +197,7 @@ class AlignedPathNode {
     gt_frame_.clear();
     since_update_ = 0;
     changed_ = false;
+    path_skipped_ = map_skipped_ = false;
     res.success = true;
     res.message = "aligned_path_node: trajectories and alignment cleared";
     return true;
@@ -198,7 +228,9 @@ class AlignedPathNode {
 
   /// Caller holds mutex_.
   void publishPath() {
-    if (!alignment_.valid() || path_pub_.getNumSubscribers() == 0) return;
+    if (!alignment_.valid()) return;
+    path_skipped_ = path_pub_.getNumSubscribers() == 0;
+    if (path_skipped_) return;
     const Trajectory& estimate = alignment_.estimate();
     nav_msgs::Path path;
     path.header.frame_id = outputFrame();
@@ -212,7 +244,9 @@ class AlignedPathNode {
 
   /// The map through the current Sim(3): x y z transformed, every other field copied. Caller holds mutex_.
   void publishMap() {
-    if (!map_ || !alignment_.valid() || map_pub_.getNumSubscribers() == 0) return;
+    if (!map_ || !alignment_.valid()) return;
+    map_skipped_ = map_pub_.getNumSubscribers() == 0;
+    if (map_skipped_) return;
     sensor_msgs::PointCloud2 cloud = *map_;
     cloud.header.frame_id = outputFrame();
     sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
@@ -235,6 +269,8 @@ class AlignedPathNode {
   std::string gt_frame_;
   int since_update_ = 0;
   bool changed_ = false;  ///< a pose arrived since the last realign()
+  /// The last publishPath() / publishMap() found no subscriber: the latched message is out of date.
+  bool path_skipped_ = false, map_skipped_ = false;
   ros::Publisher path_pub_, ate_pub_, map_pub_;
   ros::Subscriber est_sub_, gt_sub_, map_sub_;
   ros::ServiceServer reset_srv_;

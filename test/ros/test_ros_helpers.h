@@ -1,6 +1,6 @@
 #pragma once
-/// Helpers of the VO rostest nodes: wait on conditions (never a fixed sleep) and ask the master who
-/// subscribes to a topic.
+/// Helpers of the VO rostest nodes: wait on conditions (never a fixed sleep), ask the master who subscribes
+/// to a topic, and ask another node about its connections (XML-RPC slave API).
 
 #include <chrono>
 #include <functional>
@@ -9,7 +9,9 @@
 #include <vector>
 
 #include <ros/master.h>
+#include <ros/network.h>
 #include <ros/ros.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
 namespace planetary_vo::ros_io {
 
@@ -35,11 +37,65 @@ inline bool topicHasSubscriber(const std::string& topic) {
   return false;
 }
 
-/// Whether every subscriber is connected to at least one publisher.
+/// Whether every subscriber is connected to at least one publisher. Seen from the subscriber only: roscpp
+/// counts a publisher as soon as it has opened the TCP connection, before the publisher has read the
+/// connection header, and a message published in between is not sent to us (only a latched one is, later). To
+/// know that a non-latched message will reach us, use publisherSendsTo().
 inline bool allConnected(const std::vector<ros::Subscriber>& subs) {
   for (const ros::Subscriber& s : subs)
     if (s.getNumPublishers() == 0) return false;
   return true;
+}
+
+/// Calls the XML-RPC slave API `method` of node `node` with this node's caller id as the only argument; false
+/// if the node cannot be found or the call fails.
+inline bool callNode(const std::string& node, const std::string& method, XmlRpc::XmlRpcValue* response) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return false;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(std::string(payload), host, port)) return false;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue request;
+  request[0] = ros::this_node::getName();
+  return client.execute(method.c_str(), request, *response) && !client.isFault() &&
+         response->getType() == XmlRpc::XmlRpcValue::TypeArray;
+}
+
+/// Whether node `publisher` has accepted the subscription of node `subscriber` (default: this node) to
+/// `topic` (resolved name), seen from the publisher's side (getBusInfo): from then on everything it publishes
+/// on `topic` is sent to that subscriber.
+inline bool publisherSendsTo(const std::string& publisher, const std::string& topic,
+                             const std::string& subscriber = ros::this_node::getName()) {
+  XmlRpc::XmlRpcValue response;
+  if (!callNode(publisher, "getBusInfo", &response) || response.size() < 3 || int(response[0]) != 1)
+    return false;
+  XmlRpc::XmlRpcValue& connections = response[2];  // [code, status message, connections]
+  // Each connection: [id, peer node, direction ("o": we publish to the peer), transport, topic, ...].
+  for (int i = 0; i < connections.size(); ++i)
+    if (connections[i].size() >= 5 && std::string(connections[i][1]) == subscriber &&
+        std::string(connections[i][2]) == "o" && std::string(connections[i][4]) == topic)
+      return true;
+  return false;
+}
+
+/// How many messages node `subscriber` has read on `topic` (resolved name) from its one publisher (its
+/// getBusStats; roscpp reports only one connection per topic there); -1 if it cannot be asked. roscpp counts
+/// a message as it queues it for the callbacks, in the thread that reads every connection.
+inline int messagesReceived(const std::string& subscriber, const std::string& topic) {
+  // roscpp answers getBusStats with the bare [publish stats, subscribe stats, service stats], no status code.
+  XmlRpc::XmlRpcValue stats;
+  if (!callNode(subscriber, "getBusStats", &stats) || stats.size() < 2) return -1;
+  // stats[1]: one [topic, [[connection id, bytes, messages, drops, ...], ...]] per subscribed topic.
+  XmlRpc::XmlRpcValue& subscriptions = stats[1];
+  int messages = 0;
+  for (int i = 0; i < subscriptions.size(); ++i) {
+    if (std::string(subscriptions[i][0]) != topic) continue;
+    for (int j = 0; j < subscriptions[i][1].size(); ++j) messages += int(subscriptions[i][1][j][2]);
+  }
+  return messages;
 }
 
 }  // namespace planetary_vo::ros_io

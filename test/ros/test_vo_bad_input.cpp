@@ -51,10 +51,15 @@ class VoBadInputTest : public ::testing::Test {
     info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera/camera_info", 10);
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoBadInputTest::onStatus, this));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoBadInputTest::onPose, this));
+    // The outputs' connections as the manager sees them: a status published before it has accepted ours is
+    // lost, and send() would wait for it in vain (see allConnected()).
+    const std::string manager = pnh.param<std::string>("manager", "/vo_manager");
     ASSERT_TRUE(waitFor(
         [&] {
-          return image_pub_.getNumSubscribers() > 0 && info_pub_.getNumSubscribers() > 0 &&
-                 allConnected(subs_);
+          if (image_pub_.getNumSubscribers() == 0 || info_pub_.getNumSubscribers() == 0) return false;
+          for (const ros::Subscriber& s : subs_)
+            if (!publisherSendsTo(manager, s.getTopic())) return false;
+          return true;
         },
         30.0))
         << "the nodelet did not connect";

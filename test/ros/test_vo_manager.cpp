@@ -49,8 +49,16 @@ class VoReloadTest : public ::testing::Test {
   }
   /// Streams frames [begin, end) in lock step with vo/status; true if every frame got its status.
   bool stream(size_t begin, size_t end) {
-    if (!waitFor([&] { return image_pub_.getNumSubscribers() > 0 && status_sub_.getNumPublishers() > 0; },
-                 30.0))
+    // Nothing may be lost on the way, or a frame never gets its status. The nodelet subscribes to the image
+    // and to camera_info separately (they connect in either order; an image without its camera_info is never
+    // processed), and the status connection is only usable once the manager has accepted it: the subscriber
+    // side counts the publisher earlier (see allConnected()).
+    if (!waitFor(
+            [&] {
+              return image_pub_.getNumSubscribers() > 0 && info_pub_.getNumSubscribers() > 0 &&
+                     publisherSendsTo(manager_, status_sub_.getTopic());
+            },
+            30.0))
       return false;
     for (size_t i = begin; i < end; ++i) {
       const ros::Time t = toStamp(ros::Time(1000000000, 0), dataset_->timestamp(i));
@@ -91,8 +99,10 @@ TEST_F(VoReloadTest, UnloadAndReloadInARunningManager) {
     ASSERT_TRUE(ros::service::call(manager_ + "/unload_nodelet", unload));
     ASSERT_TRUE(unload.response.success);
     EXPECT_FALSE(loaded());
-    // Unloaded means unsubscribed: the camera topic loses its subscriber.
-    ASSERT_TRUE(waitFor([&] { return image_pub_.getNumSubscribers() == 0; }, 30.0));
+    // Unloaded means unsubscribed: the camera topics lose their subscriber. Also, stream() after the reload
+    // must not take a connection to the unloaded nodelet that is still being closed for the new one.
+    ASSERT_TRUE(waitFor(
+        [&] { return image_pub_.getNumSubscribers() == 0 && info_pub_.getNumSubscribers() == 0; }, 30.0));
 
     nodelet::NodeletLoad load;
     load.request.name = nodelet_;

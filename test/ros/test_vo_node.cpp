@@ -10,6 +10,7 @@
 ///                                connected, then call /player/resume
 ///   ~max_ate_percent (double, 5) bound on the ATE RMSE in percent of the ground-truth path length
 ///   ~world_frame, ~camera_frame  frames of the tf lookup ("world", "camera_optical")
+///   ~manager, ~player (string)   node names of the nodelet manager and the player ("/vo_manager", "/player")
 ///   ~timeout (double, 120)       seconds to wait for the whole stream
 
 #include <cmath>
@@ -46,6 +47,8 @@ class VoEndToEndTest : public ::testing::Test {
     world_frame_ = pnh.param<std::string>("world_frame", "world");
     camera_frame_ = pnh.param<std::string>("camera_frame", "camera_optical");
     timeout_s_ = pnh.param("timeout", 120.0);
+    manager_ = pnh.param<std::string>("manager", "/vo_manager");
+    player_ = pnh.param<std::string>("player", "/player");
     dataset_ = std::make_unique<Dataset>(Dataset::open(dataset_dir_));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoEndToEndTest::onPose, this));
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoEndToEndTest::onStatus, this));
@@ -81,7 +84,7 @@ class VoEndToEndTest : public ::testing::Test {
   }
 
   ros::NodeHandle nh_;
-  std::string dataset_dir_, world_frame_, camera_frame_;
+  std::string dataset_dir_, world_frame_, camera_frame_, manager_, player_;
   bool live_ = true;
   double max_ate_percent_ = 5.0, timeout_s_ = 120.0;
   std::unique_ptr<Dataset> dataset_;
@@ -96,9 +99,21 @@ class VoEndToEndTest : public ::testing::Test {
 
 TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
   if (live_) {
-    // Start the paused player once the nodelet subscribes to the camera and this node to its outputs.
-    ASSERT_TRUE(waitFor([&] { return topicHasSubscriber("/camera/image_raw") && allConnected(subs_); }, 30.0))
-        << "the nodelet did not subscribe to /camera/image_raw";
+    // Start the paused player once the nodelet is connected to the camera and this node to the outputs, as
+    // the publishers see it: whatever they publish before they have accepted a subscriber is lost for it
+    // (see allConnected()), and a lost ground-truth pose would leave the stream incomplete.
+    ASSERT_TRUE(waitFor(
+        [&] {
+          if (!publisherSendsTo(player_, "/camera/image_raw", manager_) ||
+              !publisherSendsTo(player_, "/camera/camera_info", manager_))
+            return false;
+          for (const ros::Subscriber& s : subs_)
+            if (!publisherSendsTo(s.getTopic() == "/ground_truth/pose" ? player_ : manager_, s.getTopic()))
+              return false;
+          return true;
+        },
+        30.0))
+        << "the nodelet did not connect to the player's camera, or this node to the outputs";
     std_srvs::Trigger resume;
     ASSERT_TRUE(ros::service::waitForService("/player/resume", ros::Duration(30.0)));
     ASSERT_TRUE(ros::service::call("/player/resume", resume));
