@@ -63,12 +63,13 @@ if(TARGET GTest::gtest)
   add_rostest(test/ros/player_live.test ARGS data_dir:=${PLANETARY_VO_DATA_DIR}
               DEPENDENCIES test_player_node player)
   add_rostest(test/ros/player_live.test ARGS data_dir:=${PLANETARY_VO_DATA_DIR}
-              dataset:=${PLAYER_SYNTHETIC_DATASET} rate:=1 expect_fx:=0
+              dataset:=${PLAYER_SYNTHETIC_DATASET} rate:=1 expect_fx:=0 name:=synthetic
               DEPENDENCIES test_player_node player player_test_data)
   add_rostest(test/ros/player_bag.test ARGS bag:=${PLAYER_KITTI_BAG}
-              dataset:=${PLANETARY_VO_DATA_DIR}/kitti_clip_turn expect_fx:=718.856
+              dataset:=${PLANETARY_VO_DATA_DIR}/kitti_clip_turn expect_fx:=718.856 name:=kitti
               DEPENDENCIES test_player_node player_test_data)
   add_rostest(test/ros/player_bag.test ARGS bag:=${PLAYER_SYNTHETIC_BAG} dataset:=${PLAYER_SYNTHETIC_DATASET}
+              name:=synthetic
               DEPENDENCIES test_player_node player_test_data)
 else()
   message(WARNING "GTest not found: the player rostests are not built (install libgtest-dev)")
