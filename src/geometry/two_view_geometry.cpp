@@ -213,10 +213,12 @@ TwoViewResult estimateHomography(const std::vector<cv::Point2d>& px1, const std:
   std::string reason = commonChecks(r, th);
   const bool two_candidates = r.homography_candidates.size() >= 2;
   if (reason.empty() && two_candidates && r.quality.candidate_margin < th.min_homography_margin &&
-      !r.resolved_by_prior)
+      !r.resolved_by_prior) {
+    r.ambiguous = true;
     reason = format("ambiguous homography decomposition: two candidates, in-front margin",
                     r.quality.candidate_margin, "<", th.min_homography_margin) +
              " and no prior plane normal";
+  }
   const double prior_angle = r.homography_candidates[0].prior_normal_angle_deg;
   if (reason.empty() && std::isfinite(prior_angle) && prior_angle > th.max_prior_normal_angle_deg)
     reason = format("plane normal disagrees with the prior (deg):", prior_angle, ">",

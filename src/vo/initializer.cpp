@@ -119,11 +119,7 @@ std::vector<RelativeMotion> Initializer::motionHypotheses(const std::vector<cv::
       hypotheses.push_back(fromTwoView(r));
       return;
     }
-    const TwoViewQualityThresholds& th = options.quality;
-    const bool only_ambiguous = r.homography_candidates.size() >= 2 && r.num_inliers >= th.min_inliers &&
-                                r.quality.inlier_ratio >= th.min_inlier_ratio &&
-                                r.quality.median_parallax_deg >= th.min_median_parallax_deg;
-    if (!r.valid && !only_ambiguous) return;
+    if (!r.valid && !r.ambiguous) return;
     for (const HomographyCandidate& c : r.homography_candidates) {
       RelativeMotion m = fromTwoView(r);
       m.valid = true;

@@ -133,6 +133,10 @@ struct TwoViewResult {
   std::vector<HomographyCandidate> homography_candidates;
   /// Homography only: true when the prior normal chose between candidates the points could not separate.
   bool resolved_by_prior = false;
+  /// Homography only: every check passed except that the two decompositions could not be told apart (in-front
+  /// margin too small, no prior). valid is false; a caller with more information (later views, triangulation)
+  /// may still choose between homography_candidates.
+  bool ambiguous = false;
   bool valid = false;
   std::string reason;
 

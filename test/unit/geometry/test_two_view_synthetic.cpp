@@ -129,6 +129,8 @@ TEST(TwoViewSynthetic, AmbiguousHomographyWithoutPriorIsRejected) {
   o.quality.min_homography_margin = 1.0;  // points never separate the candidates
   const TwoViewResult r = estimateHomography(s.px1, s.px2, s.camera, o);
   EXPECT_FALSE(r.valid);
+  EXPECT_TRUE(r.ambiguous);
+  EXPECT_GE(r.homography_candidates.size(), 2u);
   EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
 }
 
