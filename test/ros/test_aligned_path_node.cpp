@@ -251,11 +251,5 @@ TEST(AlignedPathNode, GroundTruthAfterTheEstimatesAndALateSubscriber) {
 }  // namespace planetary_vo::ros_io
 
 int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_aligned_path_node");
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
-  const int result = RUN_ALL_TESTS();
-  ros::shutdown();
-  return result;
+  return planetary_vo::ros_io::runRosTests(argc, argv, "test_aligned_path_node");
 }

@@ -13,6 +13,8 @@
 #include <ros/ros.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
+#include <gtest/gtest.h>
+
 namespace planetary_vo::ros_io {
 
 /// Polls `done` (callbacks run in an AsyncSpinner) until it holds or `timeout_s` of wall time pass.
@@ -96,6 +98,18 @@ inline int messagesReceived(const std::string& subscriber, const std::string& to
     for (int j = 0; j < subscriptions[i][1].size(); ++j) messages += int(subscriptions[i][1][j][2]);
   }
   return messages;
+}
+
+/// main() of a rostest gtest node: gtest and ROS initialised, callbacks served by two spinner threads while
+/// the tests wait, ROS shut down afterwards. Returns gtest's result.
+inline int runRosTests(int argc, char** argv, const char* node_name) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, node_name);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  ros::shutdown();
+  return rc;
 }
 
 }  // namespace planetary_vo::ros_io

@@ -118,12 +118,4 @@ TEST_F(VoReloadTest, UnloadAndReloadInARunningManager) {
 }  // namespace
 }  // namespace planetary_vo::ros_io
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_vo_manager");
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return planetary_vo::ros_io::runRosTests(argc, argv, "test_vo_manager"); }
