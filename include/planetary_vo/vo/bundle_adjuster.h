@@ -88,7 +88,9 @@ BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_wo
                      const std::vector<Eigen::Vector2d>& px, double fx, double fy, double cx, double cy,
                      const BundleAdjustmentConfig& config);
 
-/// Runs adjustBundle() in a background thread so that tracking never waits for it (thesis Phase 2).
+/// Runs adjustBundle() in a background thread (thesis Phase 2): submit() returns at once. The Pipeline
+/// submits at a keyframe and collects with waitIdle() + takeResult() after the next image's KLT, so the
+/// solve overlaps that tracking and its result always lands at the same frame.
 /// At most one problem is in flight; submitting while busy replaces the queued (not yet started) problem.
 /// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its own
 /// copy of the problem.
