@@ -1,8 +1,10 @@
 #include "planetary_vo/geometry/camera_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
+#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 
 namespace planetary_vo {
@@ -52,8 +54,8 @@ bool PinholeCamera::isValid(std::string* why) const {
   if (!std::isfinite(cx_) || !std::isfinite(cy_)) return fail("principal point is not finite");
   for (double d : distortion_)
     if (!std::isfinite(d)) return fail("distortion coefficient is not finite");
-  if (!distortion_model_.empty() && distortion_model_ != "plumb_bob" && distortion_model_ != "rational_polynomial" &&
-      distortion_model_ != "equidistant")
+  if (!distortion_model_.empty() && distortion_model_ != "plumb_bob" &&
+      distortion_model_ != "rational_polynomial" && distortion_model_ != "equidistant")
     return fail("unsupported distortion model '" + distortion_model_ + "'");
   if (distortion_model_ == "equidistant" && hasDistortion() && distortion_.size() < 4)
     return fail("equidistant distortion needs 4 coefficients");
@@ -83,16 +85,77 @@ std::vector<cv::Point2f> PinholeCamera::undistortPixels(const std::vector<cv::Po
   std::vector<cv::Point2f> ideal_px;
   const cv::Mat K(Kcv());
   if (distortion_model_ == "equidistant") {
-    cv::fisheye::undistortPoints(distorted_px, ideal_px, K, cv::Mat(distortion_).rowRange(0, 4), cv::noArray(), K);
+    cv::fisheye::undistortPoints(distorted_px, ideal_px, K, cv::Mat(distortion_).rowRange(0, 4),
+                                 cv::noArray(), K);
   } else {
     cv::undistortPoints(distorted_px, ideal_px, K, cv::Mat(distortion_), cv::noArray(), K);
   }
   return ideal_px;
 }
 
+namespace {
+
+/// Distortion of normalised coordinates (x/z, y/z) by the ROS camera_info models (OpenCV's conventions).
+Eigen::Vector2d distortNormalized(const std::string& model, const std::vector<double>& d,
+                                  const Eigen::Vector2d& n) {
+  auto coef = [&](size_t i) { return i < d.size() ? d[i] : 0.0; };
+  const double x = n.x(), y = n.y(), r2 = x * x + y * y;
+  if (model == "equidistant") {
+    const double r = std::sqrt(r2);
+    if (r < 1e-15) return n;
+    const double th = std::atan(r), th2 = th * th;
+    const double thd = th * (1 + th2 * (coef(0) + th2 * (coef(1) + th2 * (coef(2) + th2 * coef(3)))));
+    return n * (thd / r);
+  }
+  // plumb_bob: k1 k2 p1 p2 k3; rational_polynomial: k1 k2 p1 p2 k3 k4 k5 k6.
+  const double k1 = coef(0), k2 = coef(1), p1 = coef(2), p2 = coef(3), k3 = coef(4);
+  double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  if (model == "rational_polynomial") radial /= 1 + r2 * (coef(5) + r2 * (coef(6) + r2 * coef(7)));
+  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+          y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+}
+
+}  // namespace
+
+Eigen::Vector2d PinholeCamera::distortPixel(const Eigen::Vector2d& ideal_px) const {
+  if (!hasDistortion()) return ideal_px;
+  const Eigen::Vector2d d = distortNormalized(distortion_model_, distortion_, pixelToNormalized(ideal_px));
+  return {fx_ * d.x() + cx_, fy_ * d.y() + cy_};
+}
+
+Eigen::Vector2d PinholeCamera::undistortPixel(const Eigen::Vector2d& distorted_px, bool* converged) const {
+  if (converged) *converged = true;
+  if (!hasDistortion()) return distorted_px;
+  const Eigen::Vector2d target = pixelToNormalized(distorted_px);
+  // Newton on f(n) = distort(n) - target with a central-difference Jacobian, from n = target.
+  Eigen::Vector2d n = target;
+  const double tol = 1e-10 / std::max(fx_, fy_);
+  for (int it = 0; it < 50; ++it) {
+    const Eigen::Vector2d f = distortNormalized(distortion_model_, distortion_, n) - target;
+    if (f.norm() < tol) {
+      return {fx_ * n.x() + cx_, fy_ * n.y() + cy_};
+    }
+    constexpr double h = 1e-7;
+    Eigen::Matrix2d J;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector2d e = Eigen::Vector2d::Zero();
+      e[k] = h;
+      J.col(k) = (distortNormalized(distortion_model_, distortion_, n + e) -
+                  distortNormalized(distortion_model_, distortion_, n - e)) /
+                 (2 * h);
+    }
+    const Eigen::Vector2d step = J.inverse() * f;  // 2x2: closed form
+    if (!step.allFinite()) break;
+    n -= step;
+  }
+  if (converged) *converged = false;
+  return {fx_ * n.x() + cx_, fy_ * n.y() + cy_};
+}
+
 bool PinholeCamera::operator==(const PinholeCamera& o) const {
-  return width_px_ == o.width_px_ && height_px_ == o.height_px_ && fx_ == o.fx_ && fy_ == o.fy_ && cx_ == o.cx_ &&
-         cy_ == o.cy_ && distortion_model_ == o.distortion_model_ && distortion_ == o.distortion_;
+  return width_px_ == o.width_px_ && height_px_ == o.height_px_ && fx_ == o.fx_ && fy_ == o.fy_ &&
+         cx_ == o.cx_ && cy_ == o.cy_ && distortion_model_ == o.distortion_model_ &&
+         distortion_ == o.distortion_;
 }
 
 }  // namespace planetary_vo

@@ -48,8 +48,20 @@ class PinholeCamera {
   Eigen::Vector3d pixelToBearing(const Eigen::Vector2d& px) const;
   bool isInImage(const Eigen::Vector2d& px, double border_px = 0.0) const;
 
-  /// Removes lens distortion from measured pixels, returning ideal pixels of the same K. No-op without distortion.
+  /// Removes lens distortion from measured pixels, returning ideal pixels of the same K. No-op without
+  /// distortion.
   std::vector<cv::Point2f> undistortPixels(const std::vector<cv::Point2f>& distorted_px) const;
+
+  /// Lens distortion of one ideal pixel (the forward model of the distortion: where the lens puts it).
+  Eigen::Vector2d distortPixel(const Eigen::Vector2d& ideal_px) const;
+  /// Inverse of distortPixel() by Newton iteration to 1e-10 px (exact where the model is invertible; the
+  /// renderer casts its rays through it). `converged` (if given) says whether the iteration met the
+  /// tolerance.
+  Eigen::Vector2d undistortPixel(const Eigen::Vector2d& distorted_px, bool* converged = nullptr) const;
+  /// Unit bearing in the camera frame of a measured (distorted) pixel.
+  Eigen::Vector3d distortedPixelToBearing(const Eigen::Vector2d& distorted_px) const {
+    return pixelToBearing(undistortPixel(distorted_px));
+  }
 
   bool operator==(const PinholeCamera& other) const;
   bool operator!=(const PinholeCamera& other) const { return !(*this == other); }
