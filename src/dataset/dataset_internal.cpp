@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/SVD>
@@ -54,6 +55,17 @@ double parseDouble(const std::string& path, const TextRow& row, size_t index) {
   if (end == token.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(value))
     throw DatasetError(where(path, row) + "value " + std::to_string(index + 1) + " '" + token +
                        "' is not a finite number");
+  return value;
+}
+
+double parseRangeOrInf(const std::string& path, const TextRow& row, size_t index) {
+  requireColumns(path, row, index + 1, false);
+  const std::string& token = row.tokens[index];
+  if (token == "inf" || token == "+inf" || token == "Inf") return std::numeric_limits<double>::infinity();
+  const double value = parseDouble(path, row, index);
+  if (value < 0.0)
+    throw DatasetError(where(path, row) + "value " + std::to_string(index + 1) + " '" + token +
+                       "' is a negative range");
   return value;
 }
 

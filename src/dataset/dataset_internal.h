@@ -23,6 +23,8 @@ std::vector<TextRow> readTextTable(const std::string& path, bool comma_separated
 
 /// Parses tokens[index] as a double; throws DatasetError "path:line: ..." if it is not a finite number.
 double parseDouble(const std::string& path, const TextRow& row, size_t index);
+/// A range: a finite number >= 0, or "inf" (no return); throws DatasetError otherwise.
+double parseRangeOrInf(const std::string& path, const TextRow& row, size_t index);
 /// Parses tokens[index] as a signed 64-bit integer (EuRoC nanosecond stamps); throws DatasetError otherwise.
 long long parseInt64(const std::string& path, const TextRow& row, size_t index);
 /// Throws DatasetError "path:line: expected N values, got M" unless the row has at least `n` tokens (exactly

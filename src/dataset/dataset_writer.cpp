@@ -1,6 +1,7 @@
 /// @file dataset_writer.cpp
 /// Writer of the planetary_vo format (docs/dataset_format.md).
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -85,6 +86,43 @@ void DatasetWriter::addFrame(double timestamp_s, const cv::Mat& image, const Pos
   finished_ = false;
 }
 
+void DatasetWriter::addExistingFrame(double timestamp_s, const Pose& T_world_cam) {
+  if (!timestamps_s_.empty() && !(timestamp_s > timestamps_s_.back()))
+    throw DatasetError("DatasetWriter::addExistingFrame: time stamps must increase");
+  char name[32];
+  std::snprintf(name, sizeof(name), "/images/%06zu.png", timestamps_s_.size());
+  if (!isFile(directory_ + name))
+    throw DatasetError("DatasetWriter::addExistingFrame: no " + directory_ + name);
+  timestamps_s_.push_back(timestamp_s);
+  ground_truth_.push_back({timestamp_s, T_world_cam});
+  finished_ = false;
+}
+
+void DatasetWriter::addGroundTruthState(const GroundTruthState& state) {
+  if (!ground_truth_state_.empty() && !(state.timestamp_s > ground_truth_state_.back().timestamp_s))
+    throw DatasetError("DatasetWriter::addGroundTruthState: time stamps must increase");
+  ground_truth_state_.push_back(state);
+  finished_ = false;
+}
+
+void DatasetWriter::addAltimeterTruth(const AltimeterTruth& truth) {
+  altimeter_truth_.push_back(truth);
+  finished_ = false;
+}
+
+void DatasetWriter::setTrueCamera(const PinholeCamera& camera) {
+  true_camera_ = camera;
+  has_true_camera_ = true;
+  finished_ = false;
+}
+
+void DatasetWriter::setTextFile(const std::string& file_name, const std::string& text) {
+  if (file_name.empty() || file_name.find('/') != std::string::npos)
+    throw DatasetError("DatasetWriter::setTextFile: '" + file_name + "' is not a plain file name");
+  text_files_[file_name] = text;
+  finished_ = false;
+}
+
 void DatasetWriter::addImu(const ImuSample& sample) {
   imu_.push_back(sample);
   finished_ = false;
@@ -128,11 +166,53 @@ void DatasetWriter::finish() {
   closeChecked(imu, d + "imu.txt");
 
   File altimeter = openForWriting(d + "altimeter.txt");
-  std::fprintf(altimeter.get(), "# timestamp[s] slant_range_m altitude_m\n");
+  std::fprintf(altimeter.get(),
+               "# timestamp[s] slant_range_m (measured along the boresight; inf = no return)\n");
   for (const AltimeterSample& s : altimeter_)
-    std::fprintf(altimeter.get(), "%.9f %s %s\n", s.timestamp_s, formatDouble(s.slant_range_m).c_str(),
-                 formatDouble(s.altitude_m).c_str());
+    std::fprintf(altimeter.get(), "%.9f %s\n", s.timestamp_s,
+                 s.hasReturn() ? formatDouble(s.slant_range_m).c_str() : "inf");
   closeChecked(altimeter, d + "altimeter.txt");
+
+  if (!ground_truth_state_.empty()) {
+    File gt = openForWriting(d + "groundtruth_state.txt");
+    std::fprintf(
+        gt.get(),
+        "# GROUND TRUTH (evaluator only) timestamp[s] px py pz[m] qx qy qz qw: T_world_body; vx vy vz[m/s] "
+        "world; bgx bgy bgz[rad/s] bax bay baz[m/s^2]: true IMU biases, IMU frame\n");
+    for (const GroundTruthState& g : ground_truth_state_) {
+      const Eigen::Vector3d& p = g.T_world_body.translation();
+      const Eigen::Quaterniond q(g.T_world_body.linear());
+      std::fprintf(gt.get(), "%.9f %.9f %.9f %.9f %.12f %.12f %.12f %.12f", g.timestamp_s, p.x(), p.y(),
+                   p.z(), q.x(), q.y(), q.z(), q.w());
+      for (const Eigen::Vector3d* v : {&g.velocity_world_mps, &g.gyro_bias_radps, &g.accel_bias_mps2})
+        for (int k = 0; k < 3; ++k) std::fprintf(gt.get(), " %s", formatDouble((*v)[k]).c_str());
+      std::fprintf(gt.get(), "\n");
+    }
+    closeChecked(gt, d + "groundtruth_state.txt");
+  }
+  if (!altimeter_truth_.empty()) {
+    File gt = openForWriting(d + "groundtruth_altimeter.txt");
+    std::fprintf(
+        gt.get(),
+        "# GROUND TRUTH (evaluator only) timestamp[s] true_range_m altitude_m incidence_deg returned "
+        "outlier\n");
+    for (const AltimeterTruth& a : altimeter_truth_)
+      std::fprintf(gt.get(), "%.9f %s %s %s %d %d\n", a.timestamp_s,
+                   std::isfinite(a.true_range_m) ? formatDouble(a.true_range_m).c_str() : "inf",
+                   formatDouble(a.altitude_m).c_str(),
+                   std::isfinite(a.incidence_deg) ? formatDouble(a.incidence_deg).c_str() : "nan",
+                   a.returned ? 1 : 0, a.outlier ? 1 : 0);
+    closeChecked(gt, d + "groundtruth_altimeter.txt");
+  }
+  if (has_true_camera_) {
+    std::string camera_name = sequenceName(sequence_yaml_);
+    writeCameraInfoYaml(d + "groundtruth_camera.yaml", true_camera_,
+                        (camera_name.empty() ? "planetary_vo_camera" : camera_name) + "_true");
+  }
+  for (const auto& [name, text] : text_files_) {
+    std::ofstream out(d + name, std::ios::binary);
+    if (!out || !(out << text) || !out.flush()) throw DatasetError("cannot write " + d + name);
+  }
 
   std::ofstream sequence(d + "sequence.yaml", std::ios::binary);
   if (!sequence || !(sequence << sequence_yaml_) || !sequence.flush())

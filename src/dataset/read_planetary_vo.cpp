@@ -44,11 +44,14 @@ std::vector<ImuSample> readImu(const std::string& path) {
 std::vector<AltimeterSample> readAltimeter(const std::string& path) {
   std::vector<AltimeterSample> samples;
   for (const TextRow& row : readTextTable(path, false)) {
-    requireColumns(path, row, 3, true);
+    // `t range` (range +inf = no return). Files of renderer versions before 1.3 carried a third column, the
+    // true altitude: it is ground truth, not a measurement, and is ignored.
+    if (row.tokens.size() != 2 && row.tokens.size() != 3)
+      throw DatasetError(path + ":" + std::to_string(row.line_number) +
+                         ": expected 2 values (t slant_range_m), got " + std::to_string(row.tokens.size()));
     AltimeterSample s;
     s.timestamp_s = parseDouble(path, row, 0);
-    s.slant_range_m = parseDouble(path, row, 1);
-    s.altitude_m = parseDouble(path, row, 2);
+    s.slant_range_m = parseRangeOrInf(path, row, 1);
     if (!samples.empty()) requireIncreasing(path, row, samples.back().timestamp_s, s.timestamp_s);
     samples.push_back(s);
   }

@@ -223,7 +223,8 @@ std::string DescentTrajectory::describeYaml(int indent) const {
   return os.str();
 }
 
-DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& trajectory) {
+DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& trajectory, int rank) {
+  if (rank < 0) throw std::invalid_argument("placement rank must be >= 0");
   constexpr int kSamples = 40, kHeadings = 12;
   constexpr double kGridStep = 2000.0, kMargin = 5000.0;
   std::vector<Eigen::Vector3d> track;
@@ -232,8 +233,8 @@ DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& 
   // Probe points around each track sample, at the scale of the image footprint.
   const Eigen::Vector2d probes[5] = {{0, 0}, {1, 0}, {-1, 0}, {0, 1}, {0, -1}};
 
-  DemPlacement best;
-  double best_score = -1.0;
+  // Every placement that keeps clear of the terrain, with its score (search order = deterministic tie order).
+  std::vector<std::pair<double, DemPlacement>> fits;
   for (int hi = 0; hi < kHeadings; ++hi) {
     const double heading = 2.0 * M_PI * hi / kHeadings;
     for (double e0 = -dem.halfWidthEastM(); e0 <= dem.halfWidthEastM(); e0 += kGridStep) {
@@ -264,14 +265,30 @@ DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& 
           ok = hmax <= 0.4 * p.z() && hmin >= -0.8 * p.z() && (hmax - hmin) <= 0.3 * r;
           score += (hmax - hmin) / p.z();
         }
-        if (ok && score > best_score) best_score = score, best = pl;
+        if (ok) fits.push_back({score, pl});
       }
     }
   }
-  if (best_score < 0)
+  if (fits.empty())
     throw std::runtime_error("no placement of the trajectory on DEM " + dem.name() +
                              " keeps clear of the terrain");
-  return best;
+  // Best first; equal scores keep the search order (so rank 0 is the placement of renderer 1.2).
+  std::stable_sort(fits.begin(), fits.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<DemPlacement> chosen;
+  for (const auto& [score, pl] : fits) {
+    bool distinct = true;
+    for (const DemPlacement& c : chosen) {
+      const double d = std::hypot(pl.origin_east_m - c.origin_east_m, pl.origin_north_m - c.origin_north_m);
+      double dh = std::abs(std::remainder(pl.heading_rad - c.heading_rad, 2.0 * M_PI));
+      distinct = distinct && (d >= 6000.0 || dh >= 60.0 * M_PI / 180.0 - 1e-9);
+    }
+    if (!distinct) continue;
+    chosen.push_back(pl);
+    if (static_cast<int>(chosen.size()) > rank) return chosen.back();
+  }
+  throw std::runtime_error("placement rank " + std::to_string(rank) + " asked, but only " +
+                           std::to_string(chosen.size()) + " distinct placements on DEM " + dem.name() +
+                           " keep clear of the terrain");
 }
 
 }  // namespace planetary_vo::render

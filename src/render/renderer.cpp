@@ -99,6 +99,14 @@ struct Renderer::Impl {
   int threads = 1;
   std::map<std::tuple<int, int64_t, int64_t>, Chunk> cache;
   uint64_t frame_counter = 0;
+  // Unit bearing of every pixel through the lens distortion (row-major); empty without distortion, where the
+  // pinhole bearing is computed on the fly as it always was (so ideal images stay bit-identical).
+  std::vector<Eigen::Vector3d> distorted_bearings;
+
+  Eigen::Vector3d pixelBearing(int col, int row) const {
+    if (distorted_bearings.empty()) return settings.camera.pixelToBearing(Eigen::Vector2d(col, row));
+    return distorted_bearings[static_cast<size_t>(row) * settings.camera.width() + col];
+  }
 
   // Per-frame state.
   std::vector<Level> levels;  // index 0 = finest (kmin)
@@ -170,7 +178,8 @@ void Renderer::Impl::setupFrame(const Pose& T, RenderStats* stats) {
     const double u = (W - 1) * i / 16.0, v = (H - 1) * i / 16.0;
     for (const Eigen::Vector2d& px : {Eigen::Vector2d(u, 0), Eigen::Vector2d(u, H - 1), Eigen::Vector2d(0, v),
                                       Eigen::Vector2d(W - 1, v), Eigen::Vector2d(0.5 * W, 0.5 * H)})
-      dirs.push_back(T.linear() * camera.pixelToBearing(px));
+      dirs.push_back(T.linear() * (camera.hasDistortion() ? camera.distortedPixelToBearing(px)
+                                                          : camera.pixelToBearing(px)));
   }
   // Footprint box between two height planes; iterate once so the planes come from the DEM under the
   // footprint.
@@ -523,6 +532,7 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
   out->image.create(H, W);
   out->depth.create(H, W);
   out->shadow.create(H, W);
+  if (settings.output_reflectance) out->reflectance.create(H, W);
   const Eigen::Vector3d sun = settings.sun_direction.normalized();
   // Exposure: flat terrain of mean albedo seen from nadir maps to flat_gray_level.
   const double flat = lunarLambertReflectance(terrain->params().albedo, Eigen::Vector3d::UnitZ(), sun,
@@ -534,12 +544,12 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
   parallelFor(H, threads, [&](int row) {
     long steps = 0;
     for (int col = 0; col < W; ++col) {
-      const Eigen::Vector3d b = camera.pixelToBearing(Eigen::Vector2d(col, row));  // unit, camera frame
+      const Eigen::Vector3d b = pixelBearing(col, row);  // unit, camera frame
       const Eigen::Vector3d d = R * b;
       const double dxy = std::hypot(d.x(), d.y());
       // Reciprocals for the block-exit tests of the march (divisions dominated its cost).
       const double inv_dx = 1.0 / d.x(), inv_dy = 1.0 / d.y(), inv_dz = 1.0 / d.z(), inv_dxy = 1.0 / dxy;
-      double value = 0.0, depth = 0.0;
+      double value = 0.0, depth = 0.0, reflectance = 0.0;
       bool shadowed = false;
       double t = 0.0;
       bool hit = false;
@@ -645,7 +655,10 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
         const double shadow_top = field(2, p.x(), p.y(), l);
         const double h = field(0, p.x(), p.y(), l);
         shadowed = n.dot(sun) <= 0.0 || (!std::isnan(shadow_top) && shadow_top > h + 0.05 * e + 1e-3);
-        if (!shadowed) value = gain * lunarLambertReflectance(std::isnan(albedo) ? 0.12 : albedo, n, sun, -d);
+        if (!shadowed) {
+          reflectance = lunarLambertReflectance(std::isnan(albedo) ? 0.12 : albedo, n, sun, -d);
+          value = gain * reflectance;
+        }
         depth = t * b.z();
       }
       if (settings.noise_sigma_dn > 0.0) {
@@ -660,6 +673,7 @@ void Renderer::Impl::trace(const Pose& T, RenderOutput* out, uint64_t frame_inde
       out->image(row, col) = cv::saturate_cast<uchar>(value);
       out->depth(row, col) = static_cast<float>(depth);
       out->shadow(row, col) = shadowed ? 255 : 0;
+      if (settings.output_reflectance) out->reflectance(row, col) = static_cast<float>(reflectance);
     }
     total_steps += steps;
   });
@@ -676,6 +690,23 @@ Renderer::Renderer(std::shared_ptr<const LunarTerrain> terrain, const RenderSett
   impl_->settings.sun_direction.normalize();
   impl_->threads =
       settings.num_threads > 0 ? settings.num_threads : std::max(1u, std::thread::hardware_concurrency());
+  const PinholeCamera& cam = impl_->settings.camera;
+  if (cam.hasDistortion()) {
+    const int W = cam.width(), H = cam.height();
+    impl_->distorted_bearings.resize(static_cast<size_t>(W) * H);
+    std::atomic<int> not_converged{0};
+    parallelFor(H, impl_->threads, [&](int row) {
+      for (int col = 0; col < W; ++col) {
+        bool ok = true;
+        impl_->distorted_bearings[static_cast<size_t>(row) * W + col] =
+            cam.pixelToBearing(cam.undistortPixel(Eigen::Vector2d(col, row), &ok));
+        if (!ok) ++not_converged;
+      }
+    });
+    if (not_converged > 0)
+      throw std::invalid_argument("render: the lens distortion is not invertible at " +
+                                  std::to_string(not_converged.load()) + " pixels");
+  }
 }
 
 Renderer::~Renderer() = default;

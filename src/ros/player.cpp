@@ -113,7 +113,11 @@ bool Player::next(PlayerMessage* message) {
       break;
     case StreamKind::kImage: {
       const std_msgs::Header camera_header = makeHeader(m.stamp, options_.camera_frame);
-      m.image = toImageMsg(dataset_.loadImage(event.index), camera_header);
+      // As the camera gives it: a 16-bit raw frame (the flight camera's MSB-aligned 10/12-bit pixels) as
+      // mono16, 8-bit gray as mono8; colour datasets are converted to gray.
+      cv::Mat pixels = dataset_.loadImageUnchanged(event.index);
+      if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
+      m.image = toImageMsg(pixels, camera_header);
       m.camera_info =
           boost::make_shared<sensor_msgs::CameraInfo>(toCameraInfo(dataset_.camera(), camera_header));
       if (dataset_.hasGroundTruth()) {

@@ -53,8 +53,7 @@ inline void writeSyntheticLanding(const std::string& directory,
     AltimeterSample s;
     const double t_rel = (k + 0.5) / spec.image_rate_hz;
     s.timestamp_s = spec.t0_s + t_rel;
-    s.altitude_m = height(t_rel);
-    s.slant_range_m = s.altitude_m + 0.5;
+    s.slant_range_m = height(t_rel) + 0.5;
     writer.addAltimeter(s);
   }
   writer.finish();

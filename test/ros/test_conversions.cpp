@@ -1,6 +1,7 @@
 /// Conversions between core types and ROS messages (no master).
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -130,7 +131,6 @@ TEST(Conversions, ImuCarriesRateAndSpecificForceWithoutOrientation) {
 TEST(Conversions, RangeIsTheSlantRange) {
   AltimeterSample s;
   s.slant_range_m = 1523.5;
-  s.altitude_m = 1500.0;
   AltimeterSpec spec;
   spec.max_range_m = 20000.0;
   const sensor_msgs::Range msg = toRange(s, makeHeader(ros::Time(4, 0), "camera_optical"), spec);
@@ -140,6 +140,14 @@ TEST(Conversions, RangeIsTheSlantRange) {
   EXPECT_GT(msg.field_of_view, 0.0f);
   EXPECT_LT(msg.min_range, msg.range);
   EXPECT_EQ(msg.header.frame_id, "camera_optical");
+}
+
+TEST(Conversions, NoReturnIsPlusInfinity) {
+  // REP-117: a range finder that saw no return reports +Inf.
+  AltimeterSample s;
+  s.slant_range_m = std::numeric_limits<double>::infinity();
+  const sensor_msgs::Range msg = toRange(s, makeHeader(ros::Time(4, 0), "camera_optical"), AltimeterSpec());
+  EXPECT_TRUE(std::isinf(msg.range) && msg.range > 0);
 }
 
 TEST(Conversions, ImageMono8AndMono16) {

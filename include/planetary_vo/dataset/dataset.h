@@ -34,11 +34,34 @@ struct ImuSample {
   Eigen::Vector3d specific_force_mps2 = Eigen::Vector3d::Zero();  ///< non-gravitational acceleration
 };
 
-/// One laser altimeter reading.
+/// One laser altimeter reading: only what the instrument measures.
 struct AltimeterSample {
   double timestamp_s = 0.0;
-  double slant_range_m = 0.0;  ///< range along the camera boresight to the terrain
-  double altitude_m = 0.0;     ///< height above the terrain directly below the camera
+  /// Measured range along the altimeter's boresight (the camera boresight for the Lunar sequences) to the
+  /// terrain; +infinity when there was no return (REP-117's convention for sensor_msgs/Range).
+  double slant_range_m = 0.0;
+  bool hasReturn() const { return slant_range_m < 1e300; }
+};
+
+/// Ground truth of the navigation state at one instant (groundtruth_state.txt, at the IMU rate). Written by
+/// the renderer for the evaluator only: nothing here may reach an estimator.
+struct GroundTruthState {
+  double timestamp_s = 0.0;
+  Pose T_world_body = Pose::Identity();  ///< body = camera optical frame for the Lunar sequences
+  Eigen::Vector3d velocity_world_mps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias_radps = Eigen::Vector3d::Zero();  ///< true total gyro bias, IMU frame
+  Eigen::Vector3d accel_bias_mps2 = Eigen::Vector3d::Zero();  ///< true total accelerometer bias, IMU frame
+};
+
+/// Ground truth of one altimeter sample (groundtruth_altimeter.txt), for the evaluator only.
+struct AltimeterTruth {
+  double timestamp_s = 0.0;
+  double true_range_m = 0.0;  ///< exact range along the boresight (+inf: no terrain within the search range)
+  double altitude_m = 0.0;    ///< height of the sensor above the terrain directly below it
+  double incidence_deg =
+      0.0;                ///< angle between the beam and the terrain normal at the boresight hit (NaN: none)
+  bool returned = false;  ///< the instrument reported a range
+  bool outlier = false;   ///< the reported range is a false return
 };
 
 enum class DatasetFormat { kPlanetaryVo, kKitti, kEuroc, kTumRgbd };
@@ -100,8 +123,19 @@ class DatasetWriter {
 
   /// Writes images/NNNNNN.png (8- or 16-bit gray) and records its stamp and ground-truth pose.
   void addFrame(double timestamp_s, const cv::Mat& image, const Pose& T_world_cam);
+  /// Records frame i = numFrames() whose images/NNNNNN.png is already on disk (a cached render whose streams
+  /// are written again). Throws DatasetError if the image file is missing.
+  void addExistingFrame(double timestamp_s, const Pose& T_world_cam);
   void addImu(const ImuSample& sample);
   void addAltimeter(const AltimeterSample& sample);
+  /// Ground-truth-only streams (groundtruth_state.txt, groundtruth_altimeter.txt); written when non-empty.
+  void addGroundTruthState(const GroundTruthState& state);
+  void addAltimeterTruth(const AltimeterTruth& truth);
+  /// The camera the images were really taken with (groundtruth_camera.yaml), when it differs from the
+  /// calibration given to the estimator in camera.yaml.
+  void setTrueCamera(const PinholeCamera& camera);
+  /// Any further text file written as given by finish() (e.g. sensors.yaml, groundtruth_sensors.yaml).
+  void setTextFile(const std::string& file_name, const std::string& text);
   /// Text of sequence.yaml (trajectory, camera mode, Sun, DEM, seed, rate, resolution...), written as given.
   void setSequenceYaml(const std::string& yaml_text);
   /// Writes groundtruth.txt, times.txt, camera.yaml, imu.txt, altimeter.txt, sequence.yaml. Idempotent.
@@ -116,6 +150,11 @@ class DatasetWriter {
   Trajectory ground_truth_;
   std::vector<ImuSample> imu_;
   std::vector<AltimeterSample> altimeter_;
+  std::vector<GroundTruthState> ground_truth_state_;
+  std::vector<AltimeterTruth> altimeter_truth_;
+  PinholeCamera true_camera_;
+  bool has_true_camera_ = false;
+  std::map<std::string, std::string> text_files_;
   std::string sequence_yaml_;
   bool finished_ = false;
 };

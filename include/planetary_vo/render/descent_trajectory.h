@@ -96,7 +96,9 @@ class DescentTrajectory {
 /// Chooses where the landing-site frame sits on the DEM: searches origins and headings so that the
 /// trajectory's ground track crosses as much relief as possible while the terrain stays below 40 % of the
 /// planned altitude (and not deeper than 80 % of it), everywhere along the track and around it.
-/// Deterministic. Throws std::runtime_error if no placement fits.
-DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& trajectory);
+/// Deterministic. `rank` 0 is the best placement; rank k > 0 the k-th next best that is distinct from all
+/// better ones (origin at least 6 km away, or heading at least 60 deg different): another track over other
+/// relief. Throws std::runtime_error if no (or not rank + 1 distinct) placement fits.
+DemPlacement placeTrajectoryOnDem(const LunarDem& dem, const DescentTrajectory& trajectory, int rank = 0);
 
 }  // namespace planetary_vo::render

@@ -37,6 +37,8 @@
 namespace planetary_vo::render {
 
 struct RenderSettings {
+  /// The camera the images are taken with. With lens distortion, each pixel's ray goes through the distortion
+  /// (pixel -> undistorted -> bearing): the image is what the real lens shows.
   PinholeCamera camera = PinholeCamera::fromFieldOfView(1024, 1024, 60.0);
   Eigen::Vector3d sun_direction = sunDirection(12.0, 250.0);  ///< unit, world, toward the Sun
   /// Gray level of flat, average-albedo terrain seen from nadir (exposure); slopes facing the Sun are
@@ -44,6 +46,9 @@ struct RenderSettings {
   double flat_gray_level = 85.0;
   double noise_sigma_dn = 0.0;  ///< read noise (DN); shot noise scales with it. 0 = noiseless
   uint64_t noise_seed = 0;
+  /// Also output the scene's reflectance factor I/F per pixel (the input of a sensor model,
+  /// sensors/camera_sensor.h).
+  bool output_reflectance = false;
   int num_threads = 0;         ///< 0 = std::thread::hardware_concurrency()
   double lod_bias = 0.0;       ///< +1 = half the detail (coarser lattice), -1 = twice
   size_t cache_chunks = 2500;  ///< 64x64-sample chunks kept between frames (32 KiB each)
@@ -67,6 +72,9 @@ struct RenderOutput {
   cv::Mat1b image;   ///< 8-bit gray
   cv::Mat1f depth;   ///< z-depth along the optical axis (m); 0 where the ray sees no terrain
   cv::Mat1b shadow;  ///< 255 where the visible point is in cast or attached shadow
+  /// Reflectance factor I/F of the point each pixel sees (0 in shadow and where there is no terrain),
+  /// noiseless; only when RenderSettings::output_reflectance.
+  cv::Mat1f reflectance;
   RenderStats stats;
 };
 

@@ -1,10 +1,22 @@
 #pragma once
 /// @file sequence_renderer.h
-/// Renders a whole descent sequence into a planetary_vo dataset folder (images, groundtruth, camera.yaml,
-/// imu.txt, altimeter.txt, sequence.yaml) through DatasetWriter, with caching and progress reporting.
+/// Renders a whole descent sequence into a planetary_vo dataset folder through DatasetWriter, with the
+/// sensors' error models (sensors/sensor_suite.h), caching and progress reporting:
+///  - what the sensors measure: images/ (8-bit for the ideal camera, 16-bit MSB-aligned raw frames for the
+///    flight camera), times.txt, camera.yaml (the calibration, with its error), image_exposure.txt (the
+///    camera's exposure telemetry), imu.txt, altimeter.txt, sensors.yaml (the sensors' specifications as a
+///    user knows them), sequence.yaml;
+///  - ground truth, for the evaluator only: groundtruth.txt, groundtruth_state.txt (pose, velocity, true IMU
+///    biases at the IMU rate), groundtruth_altimeter.txt (true range, altitude, incidence),
+///    groundtruth_camera.yaml (the real camera) and groundtruth_sensors.yaml (every error drawn for this
+///    run).
 ///
-/// Caching: sequence.yaml and render_stamp.txt carry a hash of every render parameter plus kRendererVersion.
-/// If the output folder already holds a complete render with the same hash, nothing is rendered again.
+/// Caching: render_stamp.txt carries two hashes. The image hash covers everything that changes the pixels
+/// (renderer version, sequence, DEM and its placement, size, rate, duration, terrain seed, Sun, camera sensor
+/// parameters and the sensor seed); for the ideal camera it is the hash of renderer 1.2, so its renders stay
+/// valid. The stream hash adds the IMU and altimeter parameters. A complete render with the same image hash
+/// keeps its images and only writes the streams again when the stream hash differs; nothing is done when both
+/// match.
 
 #include <cstdint>
 #include <functional>
@@ -14,11 +26,16 @@
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/render/descent_trajectory.h"
 #include "planetary_vo/render/renderer.h"
+#include "planetary_vo/sensors/sensor_suite.h"
 
 namespace planetary_vo::render {
 
 /// Bump whenever a change alters rendered pixels or streams, so cached sequences are re-rendered.
+/// (The ideal camera's images have not changed since 1.2; the streams and files of 1.3 are versioned by
+/// kStreamsVersion.)
 constexpr const char* kRendererVersion = "lunar_render 1.2";
+/// Bump whenever the sensor streams or the dataset files change (IMU, altimeter, ground-truth files).
+constexpr const char* kStreamsVersion = "streams 1.3";
 
 struct SequenceOptions {
   std::string sequence = "approach_down";  ///< one of lunarSequences()
@@ -31,7 +48,13 @@ struct SequenceOptions {
   uint64_t seed = 1;
   double sun_elevation_deg = 12.0;
   double sun_azimuth_deg = 250.0;
-  double noise_sigma_dn = 0.0;
+  double noise_sigma_dn = 0.0;  ///< the old additive noise of the ideal camera (not with the flight camera)
+  /// Sensor error models; the default is the flight preset (the default of lunar_render and the benchmark).
+  sensors::SensorSuiteParams sensors = sensors::sensorPreset("flight");
+  uint64_t sensor_seed = 1;  ///< seeds every sensor error (noise, biases, calibration error, defects)
+  /// 0: the best placement of the trajectory on the DEM; k > 0: the k-th next best distinct one (another
+  /// track over other relief, for dispersed campaigns).
+  int placement_rank = 0;
   double imu_rate_hz = 200.0;
   double altimeter_rate_hz = 20.0;
   bool save_depth = false;  ///< depth/NNNNNN.tiff (32-bit float z-depth in m)
@@ -41,11 +64,15 @@ struct SequenceOptions {
 };
 
 struct SequenceResult {
-  bool skipped = false;  ///< up to date, nothing rendered
+  bool skipped = false;        ///< up to date, nothing rendered
+  bool images_reused = false;  ///< cached images kept, only the streams written again
   size_t frames = 0;
   double seconds = 0.0;
   double frames_per_second = 0.0;
-  std::string param_hash;
+  std::string param_hash;      ///< the image hash
+  std::string streams_hash;    ///< the image hash + IMU and altimeter parameters
+  double render_cpu_s = 0.0;   ///< process CPU time spent on the images (all threads)
+  double streams_cpu_s = 0.0;  ///< process CPU time spent on IMU, altimeter and files
 };
 
 /// Progress callback: (frames done, total frames, seconds elapsed).
@@ -64,14 +91,18 @@ struct SequenceSetup {
 /// Loads the DEM, places the trajectory on it and prepares the renderer settings. Throws on bad options.
 SequenceSetup prepareSequence(const SequenceOptions& options);
 
-/// Stable hex hash of all options that change the output (not output_dir, force, num_threads) + renderer
-/// version.
+/// Stable hex hash of all options that change the images (not output_dir, force, num_threads, verbose) +
+/// renderer version. For the ideal camera and placement 0 it is the hash of renderer 1.2.
 std::string sequenceParamHash(const SequenceOptions& options);
+/// sequenceParamHash + the IMU and altimeter parameters + kStreamsVersion.
+std::string streamsParamHash(const SequenceOptions& options);
 
-/// Altimeter reading at time t: slant range along the boresight (ray cast) and altitude above the terrain
-/// below, both on the terrain evaluated at 5 cm detail (the laser footprint).
-AltimeterSample altimeterAt(const LunarTerrain& terrain, const DescentTrajectory& trajectory, double t);
+/// The exact altimeter geometry at time t: range along the boresight (ray cast), altitude above the terrain
+/// below and incidence, on the terrain evaluated at 5 cm detail. `returned` and `outlier` are left false.
+AltimeterTruth altimeterTruthAt(const LunarTerrain& terrain, const DescentTrajectory& trajectory, double t);
 constexpr double kAltimeterLodM = 0.05;
+/// A ray caster for sensors::AltimeterModel on the terrain at altimeter detail.
+sensors::RayCaster terrainRayCaster(const LunarTerrain& terrain);
 
 /// Renders (or skips if cached) the sequence. `progress` may be empty.
 SequenceResult renderSequence(const SequenceOptions& options, const ProgressFn& progress = {});

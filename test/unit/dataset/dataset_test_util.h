@@ -2,6 +2,7 @@
 /// Helpers of the dataset tests: synthetic images, file writing and pose comparison.
 
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -26,6 +27,13 @@ inline void writeText(const std::string& path, const std::string& text) {
   std::ofstream out(path);
   ASSERT_TRUE(out.good()) << "cannot write " << path;
   out << text;
+}
+
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 /// Translation distance [m] and rotation angle [rad] between two poses.

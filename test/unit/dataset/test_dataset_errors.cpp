@@ -51,9 +51,11 @@ TEST(DatasetErrors, BadLinesNameFileAndLine) {
   test::writeText(dir + "/imu.txt", "# t wx wy wz ax ay az\n0.0 0 0 0 0 0 1.62\n0.005 0 0 0 0 0\n");
   EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir); }, dir + "/imu.txt:3: expected 7 values, got 6"));
   std::remove((dir + "/imu.txt").c_str());
-  test::writeText(dir + "/altimeter.txt", "# t slant altitude\n\n0.0 100 90 7\n");
-  EXPECT_TRUE(
-      throwsDatasetError([&] { Dataset::open(dir); }, dir + "/altimeter.txt:3: expected 3 values, got 4"));
+  test::writeText(dir + "/altimeter.txt", "# t slant_range_m\n\n0.0 100 90 7\n");
+  EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir); },
+                                 dir + "/altimeter.txt:3: expected 2 values (t slant_range_m), got 4"));
+  test::writeText(dir + "/altimeter.txt", "# t slant_range_m\n0.0 1e5x\n");
+  EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir); }, dir + "/altimeter.txt:2:"));
 }
 
 TEST(DatasetErrors, InconsistentFiles) {

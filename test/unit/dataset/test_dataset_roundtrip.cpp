@@ -1,6 +1,9 @@
 /// DatasetWriter -> Dataset::open round trip of the planetary_vo format, camera YAML and TUM trajectories.
 
 #include <cstdio>
+#include <fstream>
+#include <limits>
+#include <sstream>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -54,7 +57,9 @@ WrittenSequence writeSequence(const std::string& dir, int image_type) {
     writer.addImu(s);
   }
   for (int k = 0; k < 20; ++k) {
-    const AltimeterSample s{1234.0 + k * 0.05, 2100.0 - k * 1.0 / 3.0, 2000.0 - k * 0.3};
+    // Every 7th sample has no return (+inf, REP-117).
+    const AltimeterSample s{1234.0 + k * 0.05,
+                            k % 7 == 3 ? std::numeric_limits<double>::infinity() : 2100.0 - k * 1.0 / 3.0};
     w.altimeter.push_back(s);
     writer.addAltimeter(s);
   }
@@ -93,7 +98,7 @@ void expectSameSequence(const WrittenSequence& w, const Dataset& d) {
   for (size_t k = 0; k < w.altimeter.size(); ++k) {
     EXPECT_NEAR(d.altimeter()[k].timestamp_s, w.altimeter[k].timestamp_s, 1e-9);
     EXPECT_EQ(d.altimeter()[k].slant_range_m, w.altimeter[k].slant_range_m);
-    EXPECT_EQ(d.altimeter()[k].altitude_m, w.altimeter[k].altitude_m);
+    EXPECT_EQ(d.altimeter()[k].hasReturn(), k % 7 != 3);
   }
 }
 
@@ -188,6 +193,99 @@ TEST(TrajectoryFiles, TumWriteReadAndFormatDetection) {
                              makePose(Eigen::Vector3d::UnitZ(), M_PI / 2, Eigen::Vector3d(4, 5, 6))),
             1e-12);
   EXPECT_DOUBLE_EQ(readKittiTrajectory(dir + "/kitti.txt", 20.0)[1].timestamp_s, 0.05);
+}
+
+// Ground truth that only the evaluator reads goes to its own files, never into the sensor streams.
+TEST(DatasetRoundTrip, GroundTruthFilesAreSeparateFromTheSensorStreams) {
+  const std::string dir = test::outputDir("dataset_ground_truth_files");
+  const PinholeCamera calibrated(64, 48, 70.0, 70.0, 31.5, 23.5, "plumb_bob", {-0.04, 0.002, 0, 0, 0});
+  const PinholeCamera truth(64, 48, 70.05, 70.05, 31.8, 23.2, "plumb_bob", {-0.0405, 0.002, 0, 0, 0});
+  {
+    DatasetWriter writer(dir, calibrated);
+    writer.setTrueCamera(truth);
+    writer.addFrame(1.0, test::syntheticImage(64, 48, CV_8UC1, 0), Pose::Identity());
+    writer.addAltimeter({1.0, 812.25});
+    writer.addAltimeter({1.05, std::numeric_limits<double>::infinity()});
+    GroundTruthState g;
+    g.timestamp_s = 1.0;
+    g.T_world_body.translation() = Eigen::Vector3d(1, -2, 650);
+    g.velocity_world_mps = Eigen::Vector3d(0.5, 20.25, -3);
+    g.gyro_bias_radps = Eigen::Vector3d(1e-5, -2e-5, 3e-5);
+    g.accel_bias_mps2 = Eigen::Vector3d(0.001, 0.002, -0.003);
+    writer.addGroundTruthState(g);
+    g.timestamp_s = 1.005;
+    writer.addGroundTruthState(g);
+    EXPECT_THROW(writer.addGroundTruthState(g), DatasetError);  // stamps must increase
+    writer.addAltimeterTruth({1.0, 812.0, 800.0, 12.5, true, false});
+    writer.addAltimeterTruth({1.05, std::numeric_limits<double>::infinity(), 799.0,
+                              std::numeric_limits<double>::quiet_NaN(), false, false});
+    writer.setTextFile("groundtruth_sensors.yaml", "sensor_seed: 3\n");
+    EXPECT_THROW(writer.setTextFile("../escape.yaml", "x"), DatasetError);
+  }
+  // The reader sees the calibration and the measured range only.
+  const Dataset d = Dataset::open(dir);
+  EXPECT_EQ(d.camera(), calibrated);
+  ASSERT_EQ(d.altimeter().size(), 2u);
+  EXPECT_EQ(d.altimeter()[0].slant_range_m, 812.25);
+  EXPECT_FALSE(d.altimeter()[1].hasReturn());
+  EXPECT_EQ(readCameraInfoYaml(dir + "/groundtruth_camera.yaml"), truth);
+  // groundtruth_state.txt: 17 values a line; groundtruth_altimeter.txt: 6.
+  auto dataLines = [](const std::string& path) {
+    std::vector<std::vector<std::string>> rows;
+    std::ifstream in(path);
+    for (std::string line; std::getline(in, line);) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream ss(line);
+      rows.emplace_back();
+      for (std::string tok; ss >> tok;) rows.back().push_back(tok);
+    }
+    return rows;
+  };
+  const auto state = dataLines(dir + "/groundtruth_state.txt");
+  ASSERT_EQ(state.size(), 2u);
+  ASSERT_EQ(state[0].size(), 17u);
+  EXPECT_EQ(std::stod(state[0][3]), 650.0);
+  EXPECT_EQ(std::stod(state[0][9]), 20.25);
+  EXPECT_EQ(std::stod(state[0][16]), -0.003);
+  const auto alt = dataLines(dir + "/groundtruth_altimeter.txt");
+  ASSERT_EQ(alt.size(), 2u);
+  ASSERT_EQ(alt[0].size(), 6u);
+  EXPECT_EQ(alt[0][2], "800");
+  EXPECT_EQ(alt[1][1], "inf");
+  EXPECT_EQ(alt[1][4], "0");
+  // altimeter.txt carries the time and the measured range, nothing else.
+  const auto measured = dataLines(dir + "/altimeter.txt");
+  ASSERT_EQ(measured.size(), 2u);
+  EXPECT_EQ(measured[0].size(), 2u);
+  EXPECT_EQ(measured[1][1], "inf");
+  EXPECT_EQ(test::readText(dir + "/groundtruth_sensors.yaml"), "sensor_seed: 3\n");
+}
+
+TEST(DatasetRoundTrip, ExistingFramesKeepTheirImagesAndOldAltimeterFilesStillRead) {
+  const std::string dir = test::outputDir("dataset_existing_frames");
+  const PinholeCamera camera(32, 24, 30.0, 30.0, 15.5, 11.5);
+  const cv::Mat image = test::syntheticImage(32, 24, CV_16UC1, 2);
+  {
+    DatasetWriter writer(dir, camera);
+    writer.addFrame(0.0, image, Pose::Identity());
+  }
+  {
+    DatasetWriter writer(dir, camera);  // a cached render whose streams are written again
+    writer.addExistingFrame(0.0, Pose::Identity());
+    EXPECT_THROW(writer.addExistingFrame(0.1, Pose::Identity()), DatasetError);  // no images/000001.png
+  }
+  // Renderer 1.2 wrote a third altimeter column (the true altitude): it is ignored.
+  test::writeText(dir + "/altimeter.txt", "# t range altitude\n0.0 812.5 800.0\n0.05 inf 799.5\n");
+  const Dataset d = Dataset::open(dir);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(cv::norm(d.loadImageUnchanged(0), image, cv::NORM_INF), 0.0);
+  ASSERT_EQ(d.altimeter().size(), 2u);
+  EXPECT_EQ(d.altimeter()[0].slant_range_m, 812.5);
+  EXPECT_FALSE(d.altimeter()[1].hasReturn());
+  test::writeText(dir + "/altimeter.txt", "0.0 -5\n");
+  EXPECT_THROW(Dataset::open(dir), DatasetError);  // a negative range
+  test::writeText(dir + "/altimeter.txt", "0.0 5 6 7\n");
+  EXPECT_THROW(Dataset::open(dir), DatasetError);
 }
 
 TEST(TrajectoryFiles, InterpolatePoseIsLinearInPositionAndSlerpInRotation) {

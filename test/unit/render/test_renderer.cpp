@@ -10,6 +10,7 @@
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/render/renderer.h"
 #include "planetary_vo/render/sequence_renderer.h"
+#include "planetary_vo/sensors/sensor_suite.h"
 #include "test_support.h"
 
 using namespace planetary_vo;
@@ -160,6 +161,7 @@ TEST(SequenceRenderer, WritesDatasetAndSkipsWhenUnchanged) {
   ASSERT_TRUE(test::requireDataFile(o.dem_yaml));
   o.width = o.height = 96;
   o.duration_s = 0.3;
+  o.sensors = sensors::sensorPreset("ideal");  // perfect pinhole camera: camera.yaml is the exact model
   const SequenceResult r = renderSequence(o);
   EXPECT_FALSE(r.skipped);
   EXPECT_EQ(r.frames, 4u);

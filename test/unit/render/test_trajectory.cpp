@@ -102,16 +102,19 @@ TEST(DescentTrajectory, PlacementKeepsTerrainClearAndAltimeterIsConsistent) {
     const LunarTerrain terrain(dem, placeTrajectoryOnDem(*dem, tr), TerrainParams());
     for (double t = 0; t <= tr.duration(); t += tr.duration() / 20) {
       const TrajectoryState s = tr.state(t);
-      const AltimeterSample alt = altimeterAt(terrain, tr, t);
+      const AltimeterTruth alt = altimeterTruthAt(terrain, tr, t);
       // Altitude is camera z minus the terrain right below; the terrain stays well below the camera.
       EXPECT_NEAR(alt.altitude_m,
                   s.position.z() - terrain.height(s.position.x(), s.position.y(), kAltimeterLodM), 1e-9);
       EXPECT_GT(alt.altitude_m, 0.4 * s.position.z()) << name << " t=" << t;
-      // The slant range ends on the terrain surface, along the boresight.
-      ASSERT_GT(alt.slant_range_m, 0.0);
-      const Eigen::Vector3d hit = s.position + alt.slant_range_m * s.R_world_cam.col(2);
+      // The true slant range ends on the terrain surface, along the boresight.
+      ASSERT_TRUE(std::isfinite(alt.true_range_m));
+      ASSERT_GT(alt.true_range_m, 0.0);
+      const Eigen::Vector3d hit = s.position + alt.true_range_m * s.R_world_cam.col(2);
       EXPECT_NEAR(hit.z(), terrain.height(hit.x(), hit.y(), kAltimeterLodM), 1e-3) << name << " t=" << t;
-      EXPECT_GE(alt.slant_range_m, 0.5 * alt.altitude_m);
+      EXPECT_GE(alt.incidence_deg, 0.0);
+      EXPECT_LT(alt.incidence_deg, 90.0);
+      EXPECT_GE(alt.true_range_m, 0.5 * alt.altitude_m);
     }
   }
 }
