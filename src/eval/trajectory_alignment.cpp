@@ -20,6 +20,8 @@ const char* toString(AlignmentMode mode) {
       return "se3";
     case AlignmentMode::kSim3:
       return "sim3";
+    case AlignmentMode::kFirstPose:
+      return "first";
   }
   return "unknown";
 }
@@ -28,7 +30,8 @@ AlignmentMode parseAlignmentMode(const std::string& text) {
   if (text == "none") return AlignmentMode::kNone;
   if (text == "se3") return AlignmentMode::kSe3;
   if (text == "sim3") return AlignmentMode::kSim3;
-  throw EvalError("unknown alignment '" + text + "' (expected sim3, se3 or none)");
+  if (text == "first") return AlignmentMode::kFirstPose;
+  throw EvalError("unknown alignment '" + text + "' (expected sim3, se3, first or none)");
 }
 
 AssociatedTrajectories associateByTimestamp(const Trajectory& ground_truth, const Trajectory& estimate,
@@ -80,6 +83,7 @@ Trajectory Sim3Transform::transformTrajectory(const Trajectory& trajectory) cons
 
 Sim3Transform alignTrajectories(const AssociatedTrajectories& pairs, AlignmentMode mode, size_t num_pairs) {
   if (mode == AlignmentMode::kNone) return {};
+  if (mode == AlignmentMode::kFirstPose) return alignFirstPose(pairs, FirstPoseHandover());
   const size_t n = num_pairs == 0 ? pairs.size() : std::min(num_pairs, pairs.size());
   if (n < 3)
     throw EvalError("alignment " + std::string(toString(mode)) + " needs at least 3 associated poses, got " +
@@ -105,6 +109,50 @@ Sim3Transform alignTrajectories(const AssociatedTrajectories& pairs, AlignmentMo
   s.R_gt_est = T.topLeftCorner<3, 3>() / s.scale;
   s.t_gt_est_m = T.topRightCorner<3, 1>();
   if (mode == AlignmentMode::kSe3) s.scale = 1.0;
+  return s;
+}
+
+double firstPoseWindowScale(const AssociatedTrajectories& pairs, double window_s) {
+  if (!(window_s > 0.0)) throw EvalError("the first-pose scale window must be positive");
+  constexpr double kTolerance_s = 1e-6;  // a window of exactly N frame periods keeps its last frame
+  double gt_m = 0.0, est_m = 0.0;
+  size_t used = pairs.size() > 0 ? 1 : 0;
+  for (size_t k = 1; k < pairs.size(); ++k) {
+    if (pairs.ground_truth[k].timestamp_s - pairs.ground_truth[0].timestamp_s > window_s + kTolerance_s)
+      break;
+    gt_m += (pairs.ground_truth[k].T_world_cam.translation() -
+             pairs.ground_truth[k - 1].T_world_cam.translation())
+                .norm();
+    est_m += (pairs.estimate[k].T_world_cam.translation() - pairs.estimate[k - 1].T_world_cam.translation())
+                 .norm();
+    ++used;
+  }
+  if (used < 2)
+    throw EvalError("the first-pose scale window of " + std::to_string(window_s) +
+                    " s holds fewer than 2 associated poses");
+  if (!(est_m > 0.0) || !(gt_m > 0.0))
+    throw EvalError("no motion within the first-pose scale window of " + std::to_string(window_s) +
+                    " s: the scale is undefined");
+  return gt_m / est_m;
+}
+
+Sim3Transform alignFirstPose(const AssociatedTrajectories& pairs, const FirstPoseHandover& handover) {
+  if (pairs.size() == 0) throw EvalError("first-pose alignment needs at least one associated pose");
+  if (!(handover.scale_window_s >= 0.0)) throw EvalError("the first-pose scale window must be >= 0");
+  if (!(1.0 + handover.scale_error > 0.0)) throw EvalError("the initial scale error must be > -1");
+  const double window_scale =
+      handover.scale_window_s > 0.0 ? firstPoseWindowScale(pairs, handover.scale_window_s) : 1.0;
+  const Pose& T_gt0 = pairs.ground_truth.front().T_world_cam;
+  const Pose& T_est0 = pairs.estimate.front().T_world_cam;
+  const Eigen::Vector3d e_rad = handover.attitude_error_deg * M_PI / 180.0;
+  const Eigen::Matrix3d R_error = e_rad.norm() > 0.0
+                                      ? Eigen::AngleAxisd(e_rad.norm(), e_rad.normalized()).toRotationMatrix()
+                                      : Eigen::Matrix3d::Identity();
+  Sim3Transform s;
+  s.scale = window_scale * (1.0 + handover.scale_error);
+  s.R_gt_est = R_error * T_gt0.rotation() * T_est0.rotation().transpose();
+  s.t_gt_est_m =
+      T_gt0.translation() + handover.position_error_m - s.scale * s.R_gt_est * T_est0.translation();
   return s;
 }
 

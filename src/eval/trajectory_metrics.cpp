@@ -1,10 +1,12 @@
 /// @file trajectory_metrics.cpp
-/// ATE, RPE, rotation and landing-site errors.
+/// ATE, RPE, rotation and landing-site errors, and the evaluation that also computes the navigation errors
+/// (velocity, tilt, scale, NEES; navigation_metrics.cpp).
 
 #include "planetary_vo/eval/trajectory_metrics.h"
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numeric>
 
 namespace planetary_vo {
@@ -29,7 +31,36 @@ ErrorStatistics computeStatistics(std::vector<double> values) {
   s.max = values.back();
   const size_t mid = values.size() / 2;
   s.median = values.size() % 2 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
+  s.max_abs = std::max(std::abs(s.min), std::abs(s.max));
   return s;
+}
+
+ErrorStatistics computeFiniteStatistics(const std::vector<double>& values) {
+  std::vector<double> finite;
+  finite.reserve(values.size());
+  for (double v : values)
+    if (std::isfinite(v)) finite.push_back(v);
+  return computeStatistics(std::move(finite));
+}
+
+void validate(const EvaluationOptions& options) {
+  if (!(options.max_dt_s >= 0.0)) throw EvalError("max_dt_s must be >= 0");
+  if (!(options.scale_window_s > 0.0)) throw EvalError("scale_window_s must be > 0");
+  if (!(options.gap_factor >= 1.0)) throw EvalError("gap_factor must be >= 1");
+  if (!(std::abs(options.up_world.norm() - 1.0) < 1e-6)) throw EvalError("up_world must be a unit vector");
+  const FirstPoseHandover& h = options.first_pose;
+  if (!(h.scale_window_s >= 0.0)) throw EvalError("first_pose.scale_window_s must be >= 0");
+  if (!(1.0 + h.scale_error > 0.0)) throw EvalError("first_pose.scale_error must be > -1");
+  if (!h.position_error_m.allFinite() || !h.attitude_error_deg.allFinite())
+    throw EvalError("first_pose errors must be finite");
+  if (options.alignment != AlignmentMode::kFirstPose) {
+    if (h.scale_window_s != 0.0 || h.scale_error != 0.0 || !h.position_error_m.isZero(0.0) ||
+        !h.attitude_error_deg.isZero(0.0))
+      throw EvalError("first_pose (scale window, initial errors) applies to alignment 'first' only, not '" +
+                      std::string(toString(options.alignment)) + "'");
+  } else if (options.align_num_pairs != 0) {
+    throw EvalError("align_num_pairs does not apply to alignment 'first'");
+  }
 }
 
 std::vector<double> cumulativePathLength(const Trajectory& trajectory) {
@@ -151,8 +182,90 @@ std::vector<double> attitudeDriftDeg(const Trajectory& ground_truth, const Traje
   return drift_deg;
 }
 
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// The nearest covariance in time to `timestamp_s` within max_dt_s, or nullptr.
+const StampedCovariance* nearestCovariance(const std::vector<StampedCovariance>& covariances,
+                                           double timestamp_s, double max_dt_s) {
+  const auto after = std::lower_bound(covariances.begin(), covariances.end(), timestamp_s,
+                                      [](const StampedCovariance& c, double t) { return c.timestamp_s < t; });
+  const StampedCovariance* best = nullptr;
+  double best_dt = max_dt_s;
+  if (after != covariances.end() && std::abs(after->timestamp_s - timestamp_s) <= best_dt) {
+    best = &*after;
+    best_dt = std::abs(after->timestamp_s - timestamp_s);
+  }
+  if (after != covariances.begin() && std::abs(std::prev(after)->timestamp_s - timestamp_s) <= best_dt)
+    best = &*std::prev(after);
+  return best;
+}
+
+/// Velocities of both sides and their errors, per associated pose.
+void computeVelocityErrors(const Trajectory& ground_truth, const AssociatedTrajectories& pairs,
+                           const Trajectory& aligned, const EvaluationOptions& options,
+                           const EvaluationInputs& inputs, TrajectoryEvaluation* ev) {
+  const size_t n = pairs.size();
+  std::vector<double> est_stamps(n);
+  for (size_t k = 0; k < n; ++k) est_stamps[k] = pairs.estimate[k].timestamp_s;
+
+  std::vector<Eigen::Vector3d> v_est(n);
+  if (!inputs.estimate_velocity.empty()) {
+    ev->velocity_estimate_source = "estimate_velocity";
+    std::vector<double> stamps;
+    std::vector<Eigen::Vector3d> values;
+    for (const StampedVelocity& v : inputs.estimate_velocity) {
+      stamps.push_back(v.timestamp_s);
+      values.push_back(v.velocity_world);
+    }
+    v_est = interpolateVectors(stamps, values, est_stamps, options.gap_factor);
+    for (Eigen::Vector3d& v : v_est) v = ev->alignment.scale * ev->alignment.R_gt_est * v;  // -> gt world
+  } else {
+    ev->velocity_estimate_source = "pose_differences";
+    std::vector<Eigen::Vector3d> positions(n);
+    for (size_t k = 0; k < n; ++k) positions[k] = aligned[k].T_world_cam.translation();
+    v_est = differentiatePositions(est_stamps, positions, options.gap_factor);
+  }
+
+  std::vector<Eigen::Vector3d> v_gt(n);
+  if (!inputs.ground_truth_state.empty()) {
+    ev->velocity_truth_source = "groundtruth_state";
+    std::vector<double> stamps;
+    std::vector<Eigen::Vector3d> values;
+    for (const GroundTruthState& g : inputs.ground_truth_state) {
+      stamps.push_back(g.timestamp_s);
+      values.push_back(g.velocity_world_mps);
+    }
+    v_gt = interpolateVectors(stamps, values, est_stamps, options.gap_factor);
+  } else {
+    // All ground-truth poses, not only the associated ones: the truth stays dense where the estimate has
+    // gaps.
+    ev->velocity_truth_source = "pose_differences";
+    std::vector<double> stamps(ground_truth.size());
+    std::vector<Eigen::Vector3d> positions(ground_truth.size());
+    for (size_t g = 0; g < ground_truth.size(); ++g) {
+      stamps[g] = ground_truth[g].timestamp_s;
+      positions[g] = ground_truth[g].T_world_cam.translation();
+    }
+    const std::vector<Eigen::Vector3d> all = differentiatePositions(stamps, positions, options.gap_factor);
+    for (size_t k = 0; k < n; ++k) v_gt[k] = all[pairs.ground_truth_indices[k]];
+  }
+
+  for (size_t k = 0; k < n; ++k) {
+    PoseError& p = ev->poses[k];
+    p.velocity_gt_mps = v_gt[k];
+    p.velocity_est_mps = v_est[k];
+    p.velocity_error_mps = v_est[k] - v_gt[k];
+    p.velocity_error_norm_mps = p.velocity_error_mps.allFinite() ? p.velocity_error_mps.norm() : kNaN;
+  }
+}
+
+}  // namespace
+
 TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
-                                        const EvaluationOptions& options) {
+                                        const EvaluationOptions& options, const EvaluationInputs& inputs) {
+  validate(options);
   TrajectoryEvaluation ev;
   ev.options = options;
   ev.num_ground_truth = ground_truth.size();
@@ -164,20 +277,70 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
                     " s of a ground-truth pose (ground truth " + std::to_string(ground_truth.size()) +
                     " poses, estimate " + std::to_string(estimate.size()) +
                     "): check the time stamps or --max-dt");
+  const size_t n = pairs.size();
   ev.duration_s = pairs.ground_truth.back().timestamp_s - pairs.ground_truth.front().timestamp_s;
   ev.gt_path_length_m = cumulativePathLength(pairs.ground_truth).back();
+  const std::vector<double> gt_distance_m = cumulativePathLength(ground_truth);  // all ground-truth poses
+  const double distance_at_start_m = gt_distance_m[pairs.ground_truth_indices.front()];
+  ev.distance_travelled_m = gt_distance_m[pairs.ground_truth_indices.back()] - distance_at_start_m;
 
-  ev.alignment = alignTrajectories(pairs, options.alignment, options.align_num_pairs);
+  if (options.alignment == AlignmentMode::kFirstPose) {
+    ev.alignment = alignFirstPose(pairs, options.first_pose);
+    if (options.first_pose.scale_window_s > 0.0)
+      ev.first_pose_window_scale = firstPoseWindowScale(pairs, options.first_pose.scale_window_s);
+  } else {
+    ev.alignment = alignTrajectories(pairs, options.alignment, options.align_num_pairs);
+  }
   const Trajectory aligned = ev.alignment.transformTrajectory(pairs.estimate);
 
   ev.poses = computePoseErrors(pairs.ground_truth, aligned);
-  std::vector<double> ate, rot, x, y, z;
+  std::vector<double> stamps(n);
+  std::vector<Eigen::Vector3d> gt_positions(n), est_positions(n);
+  for (size_t k = 0; k < n; ++k) {
+    PoseError& p = ev.poses[k];
+    stamps[k] = p.timestamp_s;
+    gt_positions[k] = p.position_gt_m;
+    est_positions[k] = p.position_est_m;
+    p.time_since_start_s = p.timestamp_s - ev.poses.front().timestamp_s;
+    p.distance_travelled_m = gt_distance_m[pairs.ground_truth_indices[k]] - distance_at_start_m;
+    p.position_error_percent_of_distance =
+        p.distance_travelled_m > 0.0 ? 100.0 * p.translation_error_m / p.distance_travelled_m : kNaN;
+    p.tilt_error_deg = tiltErrorDeg(pairs.ground_truth[k].T_world_cam.rotation(),
+                                    aligned[k].T_world_cam.rotation(), options.up_world);
+  }
+  computeVelocityErrors(ground_truth, pairs, aligned, options, inputs, &ev);
+  const std::vector<double> scale_error =
+      windowedScaleErrorPercent(stamps, gt_positions, est_positions, options.scale_window_s);
+  for (size_t k = 0; k < n; ++k) ev.poses[k].scale_error_percent = scale_error[k];
+
+  if (!inputs.estimate_covariance.empty()) {
+    ev.covariance_dimension = static_cast<int>(inputs.estimate_covariance.front().covariance.rows());
+    for (size_t k = 0; k < n; ++k) {
+      const StampedCovariance* c =
+          nearestCovariance(inputs.estimate_covariance, pairs.estimate[k].timestamp_s, options.max_dt_s);
+      if (c == nullptr) continue;
+      if (c->covariance.rows() != ev.covariance_dimension)
+        throw EvalError("the estimate's covariances must all have the same size");
+      const PoseNees nees = computePoseNees(pairs.ground_truth[k].T_world_cam, aligned[k].T_world_cam,
+                                            transformCovariance(c->covariance, ev.alignment));
+      ev.poses[k].nees_position = nees.position;
+      ev.poses[k].nees_attitude = nees.attitude;
+      ev.poses[k].nees_pose = nees.pose;
+    }
+  }
+
+  std::vector<double> ate, rot, x, y, z, velocity, tilt, nees_position, nees_attitude, nees_pose;
   for (const PoseError& e : ev.poses) {
     ate.push_back(e.translation_error_m);
     rot.push_back(e.rotation_error_deg);
     x.push_back(e.position_error_m.x());
     y.push_back(e.position_error_m.y());
     z.push_back(e.position_error_m.z());
+    velocity.push_back(e.velocity_error_norm_mps);
+    tilt.push_back(e.tilt_error_deg);
+    nees_position.push_back(e.nees_position);
+    nees_attitude.push_back(e.nees_attitude);
+    nees_pose.push_back(e.nees_pose);
   }
   ev.ate_m = computeStatistics(ate);
   ev.ate_rmse_percent = ev.gt_path_length_m > 0.0 ? 100.0 * ev.ate_m.rmse / ev.gt_path_length_m : 0.0;
@@ -187,15 +350,39 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
   ev.downrange_error_m = computeStatistics(y);
   ev.altitude_error_m = computeStatistics(z);
   ev.final_position_error_m = ate.back();
+  ev.velocity_error_mps = computeFiniteStatistics(velocity);
+  ev.tilt_error_deg = computeStatistics(tilt);
+  ev.scale_error_percent = computeFiniteStatistics(scale_error);
+  if (ev.covariance_dimension > 0) ev.nees_position = computeNeesStatistics(nees_position, 3);
+  if (ev.covariance_dimension == 6) {
+    ev.nees_attitude = computeNeesStatistics(nees_attitude, 3);
+    ev.nees_pose = computeNeesStatistics(nees_pose, 6);
+  }
+
+  const PoseError& last = ev.poses.back();
+  FinalErrors& f = ev.final_errors;
+  f.timestamp_s = last.timestamp_s;
+  f.time_since_start_s = last.time_since_start_s;
+  f.position_error_m = last.translation_error_m;
+  f.position_error_percent_of_distance =
+      ev.distance_travelled_m > 0.0 ? 100.0 * last.translation_error_m / ev.distance_travelled_m : kNaN;
+  f.position_error_world_m = last.position_error_m;
+  f.velocity_error_mps = last.velocity_error_norm_mps;
+  f.velocity_error_world_mps = last.velocity_error_mps;
+  f.attitude_error_deg = last.rotation_error_deg;
+  f.tilt_error_deg = last.tilt_error_deg;
+  f.scale_error_percent = last.scale_error_percent;
 
   for (int delta : options.rpe_frame_deltas)
     if (delta < 1 || static_cast<size_t>(delta) < pairs.size())  // < 1 throws
       ev.rpe.push_back(relativeErrorOverFrames(pairs.ground_truth, aligned, delta));
   std::vector<double> distances = options.rpe_distance_deltas_m;
-  if (distances.empty() && ev.gt_path_length_m > 0.0)
+  const bool default_distances = distances.empty();
+  if (default_distances && ev.gt_path_length_m > 0.0)
     for (double fraction : {0.1, 0.2, 0.3, 0.4, 0.5}) distances.push_back(fraction * ev.gt_path_length_m);
   for (double delta_m : distances) {
     RelativeError r = relativeErrorOverDistance(pairs.ground_truth, aligned, delta_m);
+    if (default_distances) r.path_fraction = delta_m / ev.gt_path_length_m;
     if (r.num_pairs > 0) ev.rpe.push_back(r);
   }
   return ev;

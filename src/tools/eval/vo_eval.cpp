@@ -1,7 +1,9 @@
 /// @file vo_eval.cpp
-/// vo_eval: evaluates an estimated trajectory against ground truth (TUM or KITTI files): association by time
-/// stamp, Umeyama alignment, ATE / RPE / rotation / landing-site errors; text report, JSON and PNG plots.
-/// See docs/evaluation.md.
+/// vo_eval: evaluates an estimated trajectory against ground truth (TUM or KITTI files, or a planetary_vo
+/// dataset folder): association by time stamp, alignment (Umeyama sim3/se3, or on the first pose as a
+/// navigation handed its initial state), ATE / RPE / rotation / landing-site errors, and the navigation
+/// errors (final error, velocity, tilt, scale drift, NEES); text report, JSON with per-pose series and PNG
+/// plots. See docs/evaluation.md.
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -20,12 +22,40 @@ using namespace planetary_vo;
 namespace {
 
 const char* kUsage =
-    "usage: vo_eval --gt FILE --est FILE [--align sim3|se3|none] [--align-frames N] [--max-dt S]\n"
+    "usage: vo_eval --gt FILE|DIR --est FILE [--align sim3|se3|first|none] [--align-frames N] [--max-dt S]\n"
+    "               [--first-scale-window S] [--initial-error-m DX,DY,DZ] [--initial-error-deg RX,RY,RZ]\n"
+    "               [--initial-scale-error F] [--gt-state FILE] [--est-velocity FILE] [--est-cov FILE]\n"
+    "               [--up-axis +z] [--scale-window S] [--gap-factor F]\n"
     "               [--rpe-frames 1,10] [--rpe-distances M1,M2,...] [--json FILE] [--plot DIR]\n"
     "               [--plot-script PATH] [--title TEXT] [--axes landing|xyz]\n"
-    "  --gt, --est      trajectories, TUM (t tx ty tz qx qy qz qw) or KITTI (12 values, 10 Hz) files\n"
-    "  --align          alignment of the estimate onto the ground truth (default sim3)\n"
-    "  --align-frames   align on the first N associated poses only (default 0: all)\n"
+    "  --gt             ground truth: TUM (t tx ty tz qx qy qz qw) or KITTI (12 values, 10 Hz) file, or a\n"
+    "                   planetary_vo dataset folder (groundtruth.txt and, if present, "
+    "groundtruth_state.txt)\n"
+    "  --est            estimated trajectory, TUM or KITTI file\n"
+    "  --align          alignment of the estimate onto the ground truth (default sim3); first: the first\n"
+    "                   associated estimated pose is put on the true one (a navigation handed its initial "
+    "state)\n"
+    "  --align-frames   align on the first N associated poses only (sim3/se3; default 0: all)\n"
+    "  --first-scale-window  with --align first: scale = ground-truth / estimate path length over the first "
+    "S\n"
+    "                   seconds (estimates without metric scale; uses the ground truth over that window "
+    "only);\n"
+    "                   default 0: scale 1\n"
+    "  --initial-error-m    with --align first: error of the handed-over position, world frame [m]\n"
+    "  --initial-error-deg  with --align first: rotation vector applied to the handed-over attitude, world "
+    "[deg]\n"
+    "  --initial-scale-error with --align first: relative error multiplying the scale, (1 + F)\n"
+    "  --gt-state       ground-truth state file (groundtruth_state.txt: t p q v bg ba) for the true "
+    "velocity\n"
+    "  --est-velocity   estimated velocity, lines t vx vy vz (world of the estimate); default: differences "
+    "of\n"
+    "                   the aligned estimated positions\n"
+    "  --est-cov        estimated covariance, lines t + 9 (3x3 position) or t + 36 (6x6 position, attitude)\n"
+    "                   values, row-major: NEES\n"
+    "  --up-axis        up direction of the ground-truth world for the tilt error (default +z; -y for "
+    "KITTI)\n"
+    "  --scale-window   trailing window of the scale error over time in seconds (default 5)\n"
+    "  --gap-factor     stamps more than F x the median period apart are a gap for velocities (default 3)\n"
     "  --max-dt         association tolerance in seconds (default 0.02)\n"
     "  --rpe-frames     RPE frame deltas (default 1,10)\n"
     "  --rpe-distances  RPE distance deltas in metres (default 10,20,30,40,50 % of the path length)\n"
@@ -58,6 +88,12 @@ double parseNumber(const std::string& text, const std::string& option) {
   const std::vector<double> v = parseList<double>(text, option);
   if (v.size() != 1) throw EvalError(option + " takes one number, got '" + text + "'");
   return v[0];
+}
+
+Eigen::Vector3d parseVector(const std::string& text, const std::string& option) {
+  const std::vector<double> v = parseList<double>(text, option);
+  if (v.size() != 3) throw EvalError(option + " takes three numbers x,y,z, got '" + text + "'");
+  return Eigen::Vector3d(v[0], v[1], v[2]);
 }
 
 /// The plot script: the option, else $PLANETARY_VO_ROOT, else the first folder up from the executable that is
@@ -98,7 +134,8 @@ Trajectory readOrExplain(const std::string& path, const char* what) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string gt_path, est_path, json_path, plot_dir, plot_script, title, axes = "landing";
+  std::string gt_arg, gt_state_path, est_path, est_velocity_path, est_cov_path, json_path, plot_dir,
+      plot_script, title, axes = "landing";
   EvaluationOptions options;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -110,9 +147,29 @@ int main(int argc, char** argv) {
       if (i + 1 >= argc) throw EvalError("option " + arg + " needs a value (or is unknown)");
       const std::string value = argv[++i];
       if (arg == "--gt") {
-        gt_path = value;
+        gt_arg = value;
+      } else if (arg == "--gt-state") {
+        gt_state_path = value;
       } else if (arg == "--est") {
         est_path = value;
+      } else if (arg == "--est-velocity") {
+        est_velocity_path = value;
+      } else if (arg == "--est-cov") {
+        est_cov_path = value;
+      } else if (arg == "--first-scale-window") {
+        options.first_pose.scale_window_s = parseNumber(value, arg);
+      } else if (arg == "--initial-error-m") {
+        options.first_pose.position_error_m = parseVector(value, arg);
+      } else if (arg == "--initial-error-deg") {
+        options.first_pose.attitude_error_deg = parseVector(value, arg);
+      } else if (arg == "--initial-scale-error") {
+        options.first_pose.scale_error = parseNumber(value, arg);
+      } else if (arg == "--up-axis") {
+        options.up_world = parseAxis(value);
+      } else if (arg == "--scale-window") {
+        options.scale_window_s = parseNumber(value, arg);
+      } else if (arg == "--gap-factor") {
+        options.gap_factor = parseNumber(value, arg);
       } else if (arg == "--align") {
         options.alignment = parseAlignmentMode(value);
       } else if (arg == "--align-frames") {
@@ -143,17 +200,29 @@ int main(int argc, char** argv) {
         throw EvalError("unknown option " + arg);
       }
     }
-    if (gt_path.empty() || est_path.empty()) throw EvalError("--gt and --est are required");
+    if (gt_arg.empty() || est_path.empty()) throw EvalError("--gt and --est are required");
+    validate(options);  // e.g. --initial-error-m without --align first
   } catch (const std::exception& e) {
     std::cerr << "vo_eval: " << e.what() << "\n" << kUsage;
     return 2;
   }
 
   try {
-    const Trajectory gt = readOrExplain(gt_path, "ground truth");
+    const GroundTruthFiles gt_files = findGroundTruthFiles(gt_arg);
+    if (gt_state_path.empty()) gt_state_path = gt_files.state_path;
+    const Trajectory gt = readOrExplain(gt_files.trajectory_path, "ground truth");
     const Trajectory est = readOrExplain(est_path, "estimate");
-    const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options);
-    std::cout << "ground truth: " << gt_path << "\nestimate:     " << est_path << "\n\n" << formatReport(ev);
+    EvaluationInputs inputs;
+    if (!gt_state_path.empty()) inputs.ground_truth_state = readGroundTruthStates(gt_state_path);
+    if (!est_velocity_path.empty()) inputs.estimate_velocity = readEstimateVelocities(est_velocity_path);
+    if (!est_cov_path.empty()) inputs.estimate_covariance = readEstimateCovariances(est_cov_path);
+    const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options, inputs);
+    std::cout << "ground truth: " << gt_files.trajectory_path << "\n";
+    if (!gt_state_path.empty()) std::cout << "ground-truth state: " << gt_state_path << "\n";
+    std::cout << "estimate:     " << est_path << "\n";
+    if (!est_velocity_path.empty()) std::cout << "estimated velocity: " << est_velocity_path << "\n";
+    if (!est_cov_path.empty()) std::cout << "estimated covariance: " << est_cov_path << "\n";
+    std::cout << "\n" << formatReport(ev);
     if (!json_path.empty()) {
       writeJson(json_path, ev);
       std::cout << "\nJSON written to " << json_path << "\n";
@@ -170,9 +239,12 @@ int main(int argc, char** argv) {
       writePoseErrorsCsv(csv, ev);
       if (title.empty()) title = est_path.substr(est_path.find_last_of('/') + 1);
       char subtitle[256];
-      std::snprintf(subtitle, sizeof(subtitle), "align %s, scale %.4f, ATE RMSE %.3f m (%.2f %% of %.1f m)",
-                    toString(options.alignment), ev.alignment.scale, ev.ate_m.rmse, ev.ate_rmse_percent,
-                    ev.gt_path_length_m);
+      std::snprintf(
+          subtitle, sizeof(subtitle),
+          "align %s, scale %.4f, ATE RMSE %.3f m (%.2f %% of %.1f m), final %.3f m (%.2f %% of %.1f m)",
+          toString(options.alignment), ev.alignment.scale, ev.ate_m.rmse, ev.ate_rmse_percent,
+          ev.gt_path_length_m, ev.final_errors.position_error_m,
+          ev.final_errors.position_error_percent_of_distance, ev.distance_travelled_m);
       const std::string command = "/usr/bin/python3 " + shellQuote(plot_script) + " --csv " +
                                   shellQuote(csv) + " --out " + shellQuote(plot_dir) + " --title " +
                                   shellQuote(title) + " --subtitle " + shellQuote(subtitle) + " --axes " +

@@ -33,6 +33,28 @@ inline Trajectory descentGroundTruth(int n = 120) {
   return gt;
 }
 
+/// Velocity of descentGroundTruth() at time t since its start [m/s] (derivative of its positions).
+inline Eigen::Vector3d descentVelocity(double t) {
+  return Eigen::Vector3d(30.0 * 0.05 * std::cos(0.05 * t), 25.0 + 0.6 * t, -100.0 + 4.0 * t);
+}
+
+/// The same trajectory in another world and at another scale, as a monocular VO reports it: p_est = S^-1
+/// p_gt, R_est = R^T R_gt, with S = (scale, R, t) mapping estimate world -> ground-truth world.
+inline Trajectory inOtherWorld(const Trajectory& gt, double scale, const Eigen::Matrix3d& R,
+                               const Eigen::Vector3d& t) {
+  Trajectory est = gt;
+  for (StampedPose& p : est) {
+    const Pose& T = p.T_world_cam;
+    p.T_world_cam = makePose(R.transpose() * T.rotation(), R.transpose() * (T.translation() - t) / scale);
+  }
+  return est;
+}
+
+/// Rotation of `deg` degrees about `axis` (normalised here).
+inline Eigen::Matrix3d rotationDeg(double deg, const Eigen::Vector3d& axis) {
+  return Eigen::AngleAxisd(deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+}
+
 /// A straight line of n poses, 1 m apart along y, identity attitude, 10 Hz.
 inline Trajectory straightLine(int n) {
   Trajectory gt;

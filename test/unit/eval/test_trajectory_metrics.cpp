@@ -217,9 +217,25 @@ TEST(Report, TextJsonAndCsvCarryTheResults) {
   std::stringstream ss(first);
   std::vector<double> values;
   for (std::string cell; std::getline(ss, cell, ',');) values.push_back(std::stod(cell));
-  ASSERT_EQ(values.size(), 20u);
-  EXPECT_NEAR(values[9], 3.0, 1e-6);   // err_z_m
-  EXPECT_NEAR(values[10], 3.0, 1e-6);  // ate_m
+  ASSERT_EQ(values.size(), 37u);        // 20 pose columns + 17 navigation columns
+  EXPECT_NEAR(values[9], 3.0, 1e-6);    // err_z_m
+  EXPECT_NEAR(values[10], 3.0, 1e-6);   // ate_m
+  EXPECT_NEAR(values[20], 0.0, 1e-12);  // t_rel_s
+  EXPECT_NEAR(values[31], 0.0, 1e-6);   // vel_err_mps: a constant offset has no velocity error
+  EXPECT_TRUE(std::isnan(values[33]));  // scale_err_pct: the 5 s window is not full at the first pose
+  EXPECT_TRUE(std::isnan(values[34]));  // nees_pos: no covariance
+  EXPECT_NE(header.find(",vel_err_mps,tilt_err_deg,scale_err_pct,nees_pos,nees_att,nees_pose"),
+            std::string::npos);
+  // JSON: no NEES without a covariance; statistics without values are null, not 0.
+  const std::string no_nees =
+      "/usr/bin/python3 -c \"import json,sys; d=json.load(open('" + dir +
+      "/eval.json')); sys.exit(0 if 'nees' not in d and d['scale_error_percent']['count'] == 0 and "
+      "d['scale_error_percent']['rmse'] is None and d['final']['scale_error_percent'] is None and "
+      "len(d['series']['t_s']) == 40 and abs(d['final']['position_error_m'] - 3) < 1e-9 else 1)\"";
+  EvaluationOptions short_window = options;
+  short_window.scale_window_s = 10.0;  // longer than the 3.9 s of the 40 poses
+  writeJson(dir + "/eval.json", evaluateTrajectory(gt, est, short_window));
+  EXPECT_EQ(std::system(no_nees.c_str()), 0);
 }
 
 }  // namespace
