@@ -25,6 +25,9 @@ PACKAGES=(
   python3-matplotlib python3-numpy
   # GUI parts: rviz, headless X for screenshots in CI
   rviz xvfb xauth imagemagick
+  # Monte Carlo campaigns on Slurm (scripts/vo_campaign.py --scheduler slurm; the campaign_slurm test starts a
+  # private single-node cluster with scripts/slurm_local.sh)
+  munge slurmctld slurmd slurm-client
 )
 
 # apt-get update only when the lists are missing or older than a day: keeps re-runs fast.

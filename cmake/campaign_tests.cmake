@@ -1,0 +1,36 @@
+# Tests of the Monte Carlo campaign tool (scripts/vo_campaign.py, docs/campaigns.md), included by the top
+# CMakeLists.txt inside if(CATKIN_ENABLE_TESTING). Python unittest files run by the system python (numpy and
+# matplotlib from Debian); the end-to-end ones run the real lunar_render, vo_run and vo_eval of this build.
+#
+#   campaign_statistics  no tools: dispersion draws, run classification, statistics and gathering on synthetic
+#                        result files with known mean / std / p99 / max, resampling on the common time grid,
+#                        a missing result counted as a failure
+#   campaign_local       a 3-run, 2-configuration campaign of approach_down at 96 px, 3 s on the local
+#                        process pool: plan, one render per run (counted by shims around the tools), results,
+#                        summary.json against the result files, plots, --write-docs, --gather, a second
+#                        execution served by the render cache, the replay of one run reproducing it exactly
+#   campaign_slurm       the same campaign through a private single-node Slurm (munged + slurmctld + slurmd
+#                        started by scripts/slurm_local.sh in a folder of its own, stopped even on failure):
+#                        every array task its own Slurm job (task logs, jobcomp records, the results' Slurm
+#                        ids), results identical to the local run. Needs root and the Debian packages munge,
+#                        slurmctld, slurmd, slurm-client (scripts/install_deps.sh)
+
+set(CAMPAIGN_TEST_DIR ${PROJECT_SOURCE_DIR}/test/campaign)
+set(CAMPAIGN_TEST_OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/test_output)
+
+add_test(NAME campaign_statistics
+         COMMAND /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_campaign_statistics.py)
+
+foreach(kind local slurm)
+  add_test(NAME campaign_${kind}
+           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
+                   PLANETARY_VO_DATA=${PLANETARY_VO_DATA_DIR}
+                   CAMPAIGN_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/campaign_${kind}
+                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_campaign_${kind}.py)
+endforeach()
+# Each test file stops itself well before this (its campaigns have their own time limits), so that the Slurm
+# test always reaches its clean-up; ctest's limit is the backstop.
+set_tests_properties(campaign_statistics campaign_local campaign_slurm PROPERTIES TIMEOUT 300)
+
+# `cmake --build build --target tests` builds the tools the end-to-end tests run.
+add_dependencies(tests lunar_render vo_run vo_eval)
