@@ -1,17 +1,30 @@
 #!/usr/bin/python3
-"""The thesis' Table 4.8 with numbers: every Lunar sequence (and the KITTI clip) under every configuration.
+"""The VO benchmark: every Lunar sequence with flight-like and ideal sensors, held-out terrain, the KITTI clip.
 
-For each sequence it renders the dataset once (lunar_render caches unchanged renders), runs vo_run with each
-configuration, scores the trajectory with vo_eval (Sim(3) alignment) and marks the run:
-  correct  ATE <= 1 % of the path length and rotation RMS <= 0.5 deg (attitude change since the first
-           pose against ground truth, which does not depend on the alignment)
-  partial  ATE <= 5 %
-  failed   worse, or lost (the estimate covers less than 90 % of the processed frames)
-It prints the table and, with --write-docs, writes docs/results.md with small trajectory plots.
+Each row is a dataset under stated conditions (sequence, image size, sensor preset, Sun, terrain seed, DEM and
+placement, sensor seed). The script renders it (lunar_render caches unchanged renders), runs vo_run with each
+configuration, scores the trajectory with vo_eval and prints one table:
 
-Usage (after scripts/build.sh):
-  /usr/bin/python3 scripts/vo_benchmark.py [--size 1024] [--duration S] [--sequences a,b] [--configs a,b]
-                                            [--write-docs] [--output DIR]
+  Sim(3) alignment   ATE (% of the path), attitude drift (error of the attitude change since the first pose),
+                     one-frame relative translation error, scale error over time (RMS, % of the global scale)
+  first-pose         the navigation is handed its initial state (pose and, for a VO without metric scale, the
+  alignment          scale of the velocity over the first FIRST_SCALE_WINDOW_S seconds): error at the end (the
+                     low gate) in m and in % of the distance travelled, velocity error RMS, tilt error at the end
+  SE(3) / NEES       only for metric estimates with a covariance: "-" for the monocular VO (no metric scale)
+  posed              frames whose pose was estimated (TRACKING or RECOVERED) / processed frames
+  mark               correct: Sim(3) ATE <= 1 % and attitude drift <= 0.5 deg; partial: ATE <= 5 %; failed: worse,
+                     or fewer than 90 % of the frames posed (lost)
+
+Groups of rows (--groups, default all):
+  flight     the six sequences at 1024x1024 with the flight sensors (the README headline)
+  ideal      the six sequences at 1024x1024 with the ideal sensors (what the defaults were tuned on)
+  ideal512   the six at 512x512, ideal sensors: the images of ../shared/docs/peer-results.md, peers beside us
+  heldout    flight sensors on terrain, seeds and Sun angles the defaults never saw
+  kitti      the real KITTI 98 deg turn clip (../shared/data/kitti_clip_turn)
+
+Usage (after `bash scripts/demo.sh` has built the tools):
+  /usr/bin/python3 scripts/vo_benchmark.py [--groups flight,ideal,...] [--sequences a,b] [--configs default,...]
+                                            [--duration S] [--write-docs] [--output DIR]
 """
 import argparse
 import json
@@ -24,17 +37,47 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LUNAR_SEQUENCES = ["main_brake_down", "main_brake_30deg", "main_brake_pitch",
                    "approach_down", "approach_30deg", "approach_nozzle"]
-CONFIGS = ["thesis_F", "thesis_E", "thesis_H", "default"]
 CORRECT_ATE_PERCENT = 1.0
 CORRECT_ROTATION_DEG = 0.5
 PARTIAL_ATE_PERCENT = 5.0
 MIN_COVERAGE = 0.9
+FIRST_SCALE_WINDOW_S = 2.0
+# The conditions the VO defaults were tuned on (sessions 1-2: ideal sensors, these values, the six sequences).
+TUNED = {"dem": "apollo15_gld100", "seed": 1, "placement_rank": 0, "sun_elevation": 12.0, "sun_azimuth": 250.0}
+
+
+def lunar_row(group, sequence, size, sensors, **kw):
+    row = {"group": group, "sequence": sequence, "size": size, "sensors": sensors, "sensor_seed": 1}
+    row.update(TUNED)
+    row.update(kw)
+    return row
+
+
+def default_rows():
+    rows = []
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("flight", s, 1024, "flight"))
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("ideal", s, 1024, "ideal"))
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("ideal512", s, 512, "ideal"))
+    # Held out: other DEM, other terrain seeds and placements, low and high Sun, other sensor seeds.
+    rows.append(lunar_row("heldout", "approach_down", 1024, "flight", dem="apollo17_gld100", seed=7,
+                          sun_elevation=7.0, sun_azimuth=100.0, sensor_seed=7))
+    rows.append(lunar_row("heldout", "main_brake_30deg", 1024, "flight", seed=13, placement_rank=2,
+                          sun_elevation=45.0, sun_azimuth=30.0, sensor_seed=13))
+    rows.append(lunar_row("heldout", "approach_30deg", 1024, "flight", dem="apollo17_gld100", seed=21,
+                          placement_rank=1, sun_elevation=25.0, sun_azimuth=300.0, sensor_seed=21))
+    rows.append({"group": "kitti", "sequence": "kitti_clip_turn", "size": None, "sensors": "real camera"})
+    return rows
 
 
 def run(cmd, log_path):
     """Runs cmd, sending its output to log_path; returns (exit code, seconds)."""
     start = time.monotonic()
     with open(log_path, "w") as log:
+        log.write("$ " + " ".join(cmd) + "\n")
+        log.flush()
         rc = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
     return rc, time.monotonic() - start
 
@@ -47,28 +90,116 @@ def count_lines(path):
 
 
 def parse_vo_run_log(path):
-    """Frame counts and the per-frame time of the whole process() call from vo_run's summary."""
+    """Coverage (estimated frames only) and the per-frame time of the whole process() call."""
     found = {}
     with open(path) as f:
         for line in f:
-            m = re.search(r"(\d+) processed frames.* (\d+) poses ->", line)
+            m = re.search(r"(\d+) processed frames", line)
             if m:
-                processed, poses = int(m.group(1)), int(m.group(2))
-                found["coverage"] = poses / max(1, processed)
+                found["processed"] = int(m.group(1))
+            m = re.search(r"states: initialising (\d+), tracking (\d+), lost (\d+), recovered (\d+)", line)
+            if m:
+                found["tracking"], found["lost"], found["recovered"] = (int(m.group(2)), int(m.group(3)),
+                                                                        int(m.group(4)))
             m = re.match(r"\s*total\s+([0-9.]+)\s+([0-9.]+)", line)
             if m:
                 found["track_median_ms"], found["track_p99_ms"] = float(m.group(1)), float(m.group(2))
+    if found.get("processed"):
+        found["coverage"] = (found.get("tracking", 0) + found.get("recovered", 0)) / found["processed"]
     return found
 
 
-def mark(ate_percent, rotation_deg, coverage):
-    if ate_percent is None or coverage < MIN_COVERAGE:
-        return "failed (lost)" if ate_percent is not None else "failed"
-    if ate_percent <= CORRECT_ATE_PERCENT and rotation_deg <= CORRECT_ROTATION_DEG:
+def mark(ate_percent, drift_deg, coverage):
+    if ate_percent is None:
+        return "failed"
+    if coverage < MIN_COVERAGE:
+        return "failed (lost)"
+    if ate_percent <= CORRECT_ATE_PERCENT and drift_deg <= CORRECT_ROTATION_DEG:
         return "correct"
     if ate_percent <= PARTIAL_ATE_PERCENT:
         return "partial"
     return "failed"
+
+
+def dataset_name(row, duration):
+    name = f"{row['sequence']}_{row['size']}px_{row['sensors']}"
+    if row["dem"] != TUNED["dem"]:
+        name += "_" + row["dem"].split("_")[0]
+    if row["seed"] != 1:
+        name += f"_seed{row['seed']}"
+    if row["placement_rank"]:
+        name += f"_place{row['placement_rank']}"
+    if (row["sun_elevation"], row["sun_azimuth"]) != (TUNED["sun_elevation"], TUNED["sun_azimuth"]):
+        name += f"_sun{row['sun_elevation']:g}az{row['sun_azimuth']:g}"
+    if row["sensors"] != "ideal" and row["sensor_seed"] != 1:
+        name += f"_sseed{row['sensor_seed']}"
+    if duration > 0:
+        name += f"_{duration:g}s"
+    return name
+
+
+def row_key(row):
+    return json.dumps({k: row.get(k) for k in ("group", "sequence", "size", "sensors", "dem", "seed",
+                                                 "placement_rank", "sun_elevation", "sun_azimuth", "sensor_seed",
+                                                 "config")}, sort_keys=True)
+
+
+def conditions(row):
+    if row["sequence"] == "kitti_clip_turn":
+        return "1241x376", "real camera", "-", "KITTI 06 (real)", "-"
+    terrain = f"{row['dem'].split('_')[0]} #{row['placement_rank']}, seed {row['seed']}"
+    sensor_seed = str(row["sensor_seed"]) if row["sensors"] != "ideal" else "-"
+    return (f"{row['size']}x{row['size']}", row["sensors"], f"{row['sun_elevation']:g}/{row['sun_azimuth']:g}",
+            terrain, sensor_seed)
+
+
+def held_out(row):
+    """Whether the row's conditions differ from what the defaults were tuned on."""
+    if row["sequence"] == "kitti_clip_turn":
+        return "tuned on"
+    differs = [k for k in TUNED if row[k] != TUNED[k]]
+    if differs:
+        return "held out"
+    return "sensors only" if row["sensors"] != "ideal" else "tuned on"
+
+
+def eval_metrics(sim3, first):
+    """The benchmark's numbers from vo_eval's JSON (docs/evaluation.md)."""
+    m = {}
+    if sim3:
+        m["ate_percent"] = sim3["ate_rmse_percent_of_path"]
+        m["drift_deg"] = sim3["attitude_drift_deg"]["rmse"]
+        for r in sim3.get("rpe", []):
+            if r.get("delta_unit") == "frames" and r.get("delta") == 1:
+                m["rpe1_percent"] = r["translation_percent"]["median"]
+        if sim3.get("scale_error_percent"):
+            m["scale_err_percent"] = sim3["scale_error_percent"]["rmse"]
+    if first:
+        fin = first.get("final", {})
+        m["end_error_m"] = fin.get("position_error_m")
+        m["end_error_percent"] = fin.get("position_error_percent_of_distance")
+        m["end_tilt_deg"] = fin.get("tilt_error_deg")
+        if first.get("velocity_error_mps"):
+            m["velocity_rms_mps"] = first["velocity_error_mps"]["rmse"]
+    return m
+
+
+def peers_table():
+    """Sim(3) ATE % of DSO, SVO 1 and ORB-SLAM3 on the 512x512 ideal renders, from peer-results.md."""
+    path = os.path.join(ROOT, "..", "shared", "docs", "peer-results.md")
+    peers = {}
+    if not os.path.exists(path):
+        return peers
+    with open(path) as f:
+        text = f.read()
+    start = text.find("## Our own six Lunar sequences")
+    if start < 0:
+        return peers
+    for line in text[start:].splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 5 and cells[0] in LUNAR_SEQUENCES:
+            peers[cells[0]] = {"DSO": cells[1], "SVO 1": cells[2], "ORB-SLAM3": cells[3], "ours then": cells[4]}
+    return peers
 
 
 def main():
@@ -76,11 +207,12 @@ def main():
     ap.add_argument("--build", default=os.environ.get("PLANETARY_VO_BUILD", os.path.join(ROOT, "build")))
     ap.add_argument("--output", default=os.path.join(ROOT, "output", "benchmark"))
     ap.add_argument("--data", default=os.environ.get("PLANETARY_VO_DATA", os.path.join(ROOT, "..", "shared", "data")))
-    ap.add_argument("--size", type=int, default=1024, help="rendered image side in pixels")
+    ap.add_argument("--groups", default="flight,ideal,ideal512,heldout,kitti")
+    ap.add_argument("--sequences", default="", help="comma-separated sequence names to keep (default: all)")
     ap.add_argument("--duration", type=float, default=0.0, help="render only the first S seconds (0 = all)")
-    ap.add_argument("--sequences", default=",".join(LUNAR_SEQUENCES + ["kitti_clip_turn"]),
-                    help="comma-separated NAME or NAME@SIZE (rendered image side for that sequence)")
-    ap.add_argument("--configs", default=",".join(CONFIGS))
+    ap.add_argument("--configs", default="default", help="VO configurations (config/NAME.yaml)")
+    ap.add_argument("--thesis-configs", action="store_true",
+                    help="also run thesis_F, thesis_E, thesis_H on the ideal 1024 rows (thesis Table 4.8)")
     ap.add_argument("--write-docs", action="store_true", help="write docs/results.md and its plots")
     args = ap.parse_args()
 
@@ -89,103 +221,153 @@ def main():
         if not os.path.exists(os.path.join(bin_dir, tool)):
             sys.exit(f"vo_benchmark: {tool} not found in {bin_dir}: build first (bash scripts/demo.sh builds)")
     os.makedirs(args.output, exist_ok=True)
+    groups = args.groups.split(",")
+    keep = set(args.sequences.split(",")) if args.sequences else None
+    plan = [r for r in default_rows() if r["group"] in groups and (keep is None or r["sequence"] in keep)]
+    started = time.monotonic()
 
-    rows = []
-    for spec in args.sequences.split(","):
-        # NAME or NAME@SIZE: a Lunar sequence may be rendered at its own size (e.g. main_brake_down@512).
-        sequence, _, size_text = spec.partition("@")
-        size = int(size_text) if size_text else args.size
-        if sequence == "kitti_clip_turn":
+    results = []
+    for row in plan:
+        if row["sequence"] == "kitti_clip_turn":
             dataset = os.path.join(args.data, "kitti_clip_turn")
+            gt = os.path.join(dataset, "poses.txt")
+            run_name = "kitti_clip_turn"
         else:
-            suffix = f"{size}px" + (f"_{args.duration:g}s" if args.duration > 0 else "")
-            dataset = os.path.join(args.output, "sequences", f"{sequence}_{suffix}")
-            cmd = [os.path.join(bin_dir, "lunar_render"), "--sequence", sequence, "--output", dataset,
-                   "--width", str(size), "--height", str(size)]
+            name = dataset_name(row, args.duration)
+            dataset = os.path.join(args.output, "sequences", name)
+            gt = dataset
+            run_name = name
+            cmd = [os.path.join(bin_dir, "lunar_render"), "--sequence", row["sequence"], "--output", dataset,
+                   "--width", str(row["size"]), "--height", str(row["size"]), "--sensors", row["sensors"],
+                   "--seed", str(row["seed"]), "--dem", row["dem"], "--placement-rank", str(row["placement_rank"]),
+                   "--sun-elevation", str(row["sun_elevation"]), "--sun-azimuth", str(row["sun_azimuth"]),
+                   "--sensor-seed", str(row["sensor_seed"]), "--no-progress"]
             if args.duration > 0:
                 cmd += ["--duration", str(args.duration)]
             os.makedirs(os.path.dirname(dataset), exist_ok=True)
             rc, secs = run(cmd, dataset + ".render.log")
             if rc != 0:
-                sys.exit(f"vo_benchmark: rendering {sequence} failed, see {dataset}.render.log")
-            print(f"[{sequence}] dataset ready ({secs:.0f} s)", flush=True)
-        gt = os.path.join(dataset, "groundtruth.txt") if sequence != "kitti_clip_turn" else \
-            os.path.join(dataset, "poses.txt")
-        for config in args.configs.split(","):
-            out = os.path.join(args.output, "runs", sequence, config)
+                sys.exit(f"vo_benchmark: rendering {name} failed, see {dataset}.render.log")
+            print(f"[{name}] dataset ready ({secs:.0f} s)", flush=True)
+        configs = args.configs.split(",")
+        if args.thesis_configs and row["group"] == "ideal":
+            configs += ["thesis_F", "thesis_E", "thesis_H"]
+        for config in configs:
+            r = dict(row)
+            r["config"] = config
+            out = os.path.join(args.output, "runs", run_name, config)
             os.makedirs(out, exist_ok=True)
             traj = os.path.join(out, "trajectory.txt")
             run_log = os.path.join(out, "vo_run.log")
-            rc, secs = run([os.path.join(bin_dir, "vo_run"), "--dataset", dataset,
-                            "--config", os.path.join(ROOT, "config", config + ".yaml"),
-                            "--output", traj], run_log)
-            row = {"sequence": sequence, "size": "1241x376" if sequence == "kitti_clip_turn" else f"{size}x{size}",
-                   "config": config, "ate_percent": None, "rotation_rms_deg": None,
-                   "coverage": 0.0, "track_median_ms": None, "track_p99_ms": None, "vo_run_rc": rc}
-            row.update(parse_vo_run_log(run_log))
+            rc, _ = run([os.path.join(bin_dir, "vo_run"), "--dataset", dataset,
+                         "--config", os.path.join(ROOT, "config", config + ".yaml"), "--output", traj], run_log)
+            r.update({"coverage": 0.0, "vo_run_rc": rc, "run_dir": os.path.relpath(out, args.output)})
+            r.update(parse_vo_run_log(run_log))
+            sim3 = first = None
             if rc == 0 and count_lines(traj) >= 3:
-                ev_json = os.path.join(out, "eval.json")
-                eval_cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj, "--align", "sim3",
-                            "--json", ev_json]
+                common = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj]
+                if row["sequence"] == "kitti_clip_turn":
+                    common += ["--up-axis", "-y", "--axes", "xyz"]
+                sim3_json, first_json = os.path.join(out, "eval_sim3.json"), os.path.join(out, "eval_first.json")
+                cmd = common + ["--align", "sim3", "--json", sim3_json]
                 if args.write_docs:
-                    eval_cmd += ["--plot", os.path.join(out, "plots")]
-                erc, _ = run(eval_cmd, os.path.join(out, "vo_eval.log"))
-                if erc == 0:
-                    with open(ev_json) as f:
-                        ev = json.load(f)
-                    row["ate_percent"] = ev["ate_rmse_percent_of_path"]
-                    row["rotation_rms_deg"] = ev["attitude_drift_deg"]["rmse"]
-                    row["aligned_rotation_rms_deg"] = ev["rotation_error_deg"]["rmse"]
-            row["mark"] = mark(row["ate_percent"], row["rotation_rms_deg"] or 0.0, row["coverage"])
-            rows.append(row)
-            print(format_row(row), flush=True)
+                    cmd += ["--plot", os.path.join(out, "plots")]
+                if run(cmd, os.path.join(out, "vo_eval_sim3.log"))[0] == 0:
+                    with open(sim3_json) as f:
+                        sim3 = json.load(f)
+                cmd = common + ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S),
+                                "--json", first_json]
+                if run(cmd, os.path.join(out, "vo_eval_first.log"))[0] == 0:
+                    with open(first_json) as f:
+                        first = json.load(f)
+            r.update(eval_metrics(sim3, first))
+            r["mark"] = mark(r.get("ate_percent"), r.get("drift_deg") or 0.0, r["coverage"])
+            results.append(r)
+            print(format_row(r), flush=True)
 
-    # Rows of sequences not run this time are kept from earlier runs into the same --output folder, so that a
-    # long benchmark can be run a few sequences at a time.
+    # Rows not run this time are kept from earlier runs into the same --output folder, so that a long benchmark
+    # can be run a few groups at a time.
     results_path = os.path.join(args.output, "results.json")
-    run_now = {(r["sequence"], r["config"]) for r in rows}
+    run_now = {row_key(r) for r in results}
     if os.path.exists(results_path):
         with open(results_path) as f:
-            rows += [r for r in json.load(f) if (r["sequence"], r["config"]) not in run_now and "size" in r]
-    order = LUNAR_SEQUENCES + ["kitti_clip_turn"]
-    rows.sort(key=lambda r: (order.index(r["sequence"]) if r["sequence"] in order else len(order),
-                             CONFIGS.index(r["config"]) if r["config"] in CONFIGS else len(CONFIGS)))
-    table = format_table(rows, args)
+            results += [r for r in json.load(f) if "group" in r and row_key(r) not in run_now]
+    order = ["flight", "ideal", "ideal512", "heldout", "kitti"]
+    results.sort(key=lambda r: (order.index(r["group"]) if r["group"] in order else len(order),
+                                LUNAR_SEQUENCES.index(r["sequence"]) if r["sequence"] in LUNAR_SEQUENCES else 9))
+    tables = format_tables(results)
     print()
-    print(table)
+    print(tables)
+    print(f"\nvo_benchmark: {len(plan)} rows in {time.monotonic() - started:.0f} s wall")
     with open(results_path, "w") as f:
-        json.dump(rows, f, indent=1)
+        json.dump(results, f, indent=1)
     if args.write_docs:
-        write_docs(table, rows, args)
+        write_docs(tables, results, args)
 
 
 def fmt(v, spec):
     return "-" if v is None else format(v, spec)
 
 
+HEADER = ("| sequence | image | sensors | Sun el/az deg | terrain (DEM #placement, seed) | sensor seed | "
+          "defaults | config | Sim3 ATE % | attitude drift deg | 1-frame RPE % | scale err RMS % | "
+          "end err m (% dist) | velocity err RMS m/s | end tilt deg | SE3 ATE, NEES | posed | mark | "
+          "ms/frame median / p99 |")
+
+
 def format_row(r):
-    return (f"| {r['sequence']} | {r['size']} | {r['config']} | {fmt(r['ate_percent'], '.3f')} | "
-            f"{fmt(r['rotation_rms_deg'], '.3f')} | {r['coverage'] * 100:.0f} % | {r['mark']} | "
-            f"{fmt(r['track_median_ms'], '.1f')} / {fmt(r['track_p99_ms'], '.1f')} |")
+    image, sensors, sun, terrain, sseed = conditions(r)
+    end = "-" if r.get("end_error_m") is None else \
+        f"{r['end_error_m']:.2f} ({fmt(r.get('end_error_percent'), '.3f')} %)"
+    return (f"| {r['sequence']} | {image} | {sensors} | {sun} | {terrain} | {sseed} | {held_out(r)} | "
+            f"{r['config']} | {fmt(r.get('ate_percent'), '.3f')} | {fmt(r.get('drift_deg'), '.3f')} | "
+            f"{fmt(r.get('rpe1_percent'), '.2f')} | {fmt(r.get('scale_err_percent'), '.2f')} | {end} | "
+            f"{fmt(r.get('velocity_rms_mps'), '.2f')} | {fmt(r.get('end_tilt_deg'), '.3f')} | - (no metric scale) | "
+            f"{r.get('coverage', 0) * 100:.0f} % | {r['mark']} | "
+            f"{fmt(r.get('track_median_ms'), '.1f')} / {fmt(r.get('track_p99_ms'), '.1f')} |")
 
 
-def format_table(rows, args):
-    head = ("| sequence | image | configuration | ATE % of path (Sim3) | rotation RMS deg | frames with a pose | mark | "
-            "ms/frame median / p99 |\n|---|---|---|---|---|---|---|---|")
-    return head + "\n" + "\n".join(format_row(r) for r in rows)
+def format_tables(results):
+    sep = "|" + "---|" * HEADER.count(" |")
+    lines = [HEADER, sep] + [format_row(r) for r in results]
+    peers = peers_table()
+    ideal512 = [r for r in results if r["group"] == "ideal512" and r["config"] == "default"]
+    if ideal512:
+        lines += ["", "Peers on the same 512x512 ideal images (Sim3 ATE % of the path; peers from "
+                  "../shared/docs/peer-results.md, measured outside the project; ours measured by this run):", "",
+                  "| sequence | DSO | SVO 1 | ORB-SLAM3 mono | planetary_vo (peer-results.md, commit fca964c) | "
+                  "planetary_vo now | posed |", "|---|---|---|---|---|---|---|"]
+        for r in ideal512:
+            p = peers.get(r["sequence"], {})
+            lines.append(f"| {r['sequence']} | {p.get('DSO', '?')} | {p.get('SVO 1', '?')} | {p.get('ORB-SLAM3', '?')} | "
+                         f"{p.get('ours then', '?')} | {fmt(r.get('ate_percent'), '.3f')} % | "
+                         f"{r.get('coverage', 0) * 100:.0f} % |")
+    return "\n".join(lines)
 
 
-def write_docs(table, rows, args):
+def write_docs(tables, results, args):
     docs = os.path.join(ROOT, "docs")
     plots = os.path.join(docs, "results")
     os.makedirs(plots, exist_ok=True)
-    lines = ["# VO benchmark results (thesis Table 4.8, with numbers)", "",
+    lines = ["# VO benchmark results", "",
              "Produced by one command from a clean clone (after `bash scripts/demo.sh` has built the tools):", "",
              "```sh", "/usr/bin/python3 scripts/vo_benchmark.py " + " ".join(sys.argv[1:]), "```", "",
              ("First " + f"{args.duration:g} s of each Lunar sequence." if args.duration else
-              "Full Lunar sequences (10 Hz), at the image size given in the table; KITTI clip at its own size."),
-             "Marks: correct = ATE <= 1 % and rotation RMS <= 0.5 deg; partial = ATE <= 5 %; failed = worse, or "
-             "a pose for fewer than 90 % of the processed frames (lost).", "", table, ""]
+              "Full Lunar sequences (10 Hz); KITTI clip at its own size."),
+             "Every row states its conditions: image size, sensor preset (`flight`: every error model of "
+             "docs/sensors/ on; `ideal`: perfect sensors), Sun elevation/azimuth, terrain (DEM, placement rank, "
+             "terrain seed) and sensor seed. `defaults` says whether the VO defaults were tuned on these "
+             "conditions (`tuned on`: ideal sensors, Apollo 15 placement 0, seed 1, Sun 12/250 deg; "
+             "`sensors only`: the same terrain seen through the flight sensors; `held out`: other terrain, seeds "
+             "or Sun).",
+             "Scores (docs/evaluation.md): Sim3 ATE and attitude drift after a Sim(3) fit; 1-frame RPE = median "
+             "relative translation error between consecutive poses; scale err = RMS of the windowed scale error "
+             "(scale drift); end err, velocity err and end tilt after the first-pose alignment with the scale of "
+             f"the first {FIRST_SCALE_WINDOW_S:g} s (the initial state handed over); SE3 ATE and NEES need a metric "
+             "estimate with a covariance (the monocular VO has neither); posed = frames with an estimated pose "
+             "(TRACKING or RECOVERED, not coasted) / processed frames.",
+             "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "
+             "or fewer than 90 % of the processed frames posed (lost).", "", tables, ""]
     # The reading of the numbers is written by hand under "## What the table says"; keep it across runs.
     results_md = os.path.join(docs, "results.md")
     if os.path.exists(results_md):
@@ -195,17 +377,18 @@ def write_docs(table, rows, args):
         if start >= 0:
             end = old.find("\n![", start)
             lines += [old[start:end if end >= 0 else len(old)].rstrip(), ""]
-    for r in rows:
-        if r["config"] != "default":
+    for r in results:
+        if r["config"] != "default" or r["group"] not in ("flight", "kitti", "heldout"):
             continue
-        src = os.path.join(args.output, "runs", r["sequence"], r["config"], "plots", "trajectory.png")
+        src = os.path.join(args.output, r.get("run_dir", ""), "plots", "trajectory.png")
         if os.path.exists(src):
-            dst = os.path.join(plots, f"{r['sequence']}.png")
+            name = os.path.basename(os.path.dirname(r["run_dir"]))
+            dst = os.path.join(plots, f"{name}.png")
             subprocess.call(["/usr/bin/convert", src, "-resize", "480x480", dst])
-            lines += [f"![{r['sequence']}](results/{r['sequence']}.png)", ""]
-    with open(os.path.join(docs, "results.md"), "w") as f:
+            lines += [f"![{name}](results/{name}.png)", ""]
+    with open(results_md, "w") as f:
         f.write("\n".join(lines))
-    print(f"wrote {os.path.join(docs, 'results.md')}")
+    print(f"wrote {results_md}")
 
 
 if __name__ == "__main__":
