@@ -10,6 +10,45 @@
 
 namespace planetary_vo {
 
+namespace {
+
+/// sensors.yaml -> SensorSpecification. Throws DatasetError naming the file on a malformed value.
+SensorSpecification readSensorSpecification(const std::string& path) {
+  SensorSpecification spec;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    auto number = [&](const YAML::Node& section, const char* key, double* out) {
+      if (section[key]) *out = section[key].as<double>();
+    };
+    if (const YAML::Node imu = root["imu"]; imu && imu.IsMap()) {
+      spec.has_imu = true;
+      number(imu, "rate_hz", &spec.imu_rate_hz);
+      number(imu, "gyro_noise_density_radps_per_sqrt_hz", &spec.gyro_noise_density_radps_per_sqrt_hz);
+      number(imu, "accel_noise_density_mps2_per_sqrt_hz", &spec.accel_noise_density_mps2_per_sqrt_hz);
+    }
+    if (const YAML::Node alt = root["altimeter"]; alt && alt.IsMap()) {
+      spec.has_altimeter = true;
+      number(alt, "min_range_m", &spec.altimeter_min_range_m);
+      number(alt, "max_range_m", &spec.altimeter_max_range_m);
+      number(alt, "beam_divergence_rad", &spec.altimeter_beam_divergence_rad);
+      number(alt, "range_noise_floor_m", &spec.altimeter_range_noise_floor_m);
+      number(alt, "range_noise_fraction", &spec.altimeter_range_noise_fraction);
+    }
+  } catch (const YAML::Exception& e) {
+    throw DatasetError(path + ": " + e.what());
+  }
+  for (double v : {spec.imu_rate_hz, spec.gyro_noise_density_radps_per_sqrt_hz,
+                   spec.accel_noise_density_mps2_per_sqrt_hz, spec.altimeter_min_range_m,
+                   spec.altimeter_beam_divergence_rad, spec.altimeter_range_noise_floor_m,
+                   spec.altimeter_range_noise_fraction})
+    if (!std::isfinite(v) || v < 0.0) throw DatasetError(path + ": negative or non-finite sensor value");
+  if (!(spec.altimeter_max_range_m > spec.altimeter_min_range_m))
+    throw DatasetError(path + ": altimeter max_range_m must exceed min_range_m");
+  return spec;
+}
+
+}  // namespace
+
 using namespace dataset_internal;
 
 namespace {
@@ -102,6 +141,7 @@ Dataset DatasetReaders::readPlanetaryVo(const std::string& directory) {
     const std::string name = sequenceName(d + "sequence.yaml", dataset.sequence_yaml_);
     if (!name.empty()) dataset.name_ = name;
   }
+  if (isFile(d + "sensors.yaml")) dataset.sensor_spec_ = readSensorSpecification(d + "sensors.yaml");
   checkConsistent(dataset);
   return dataset;
 }

@@ -224,8 +224,9 @@ std::string sensorsSpecYaml(const SequenceOptions& o) {
     << "  no_return: inf\n"
     << "  range_noise_floor_m: " << (p.altimeter.enabled ? p.altimeter.range_noise_floor_m : 0.0) << "\n"
     << "  range_noise_fraction: " << (p.altimeter.enabled ? p.altimeter.range_noise_fraction : 0.0) << "\n"
-    << "  max_range_m: " << (p.altimeter.enabled ? p.altimeter.max_range_m : 50000.0) << "\n"
-    << "  min_range_m: " << (p.altimeter.enabled ? p.altimeter.min_range_m : 0.0) << "\n";
+    << "  max_range_m: " << p.altimeter.max_range_m << "\n"
+    << "  min_range_m: " << (p.altimeter.enabled ? p.altimeter.min_range_m : 0.0) << "\n"
+    << "  beam_divergence_rad: " << (p.altimeter.enabled ? p.altimeter.beam_divergence_rad : 0.0) << "\n";
   return y.str();
 }
 

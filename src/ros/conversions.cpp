@@ -118,11 +118,32 @@ geometry_msgs::TransformStamped toTransformStamped(const Pose& T_parent_child, c
   return msg;
 }
 
-sensor_msgs::Imu toImu(const ImuSample& sample, const std_msgs::Header& header) {
+ImuNoiseSpec imuNoiseSpec(const SensorSpecification& spec) {
+  ImuNoiseSpec n;
+  if (!spec.has_imu || !(spec.imu_rate_hz > 0.0)) return n;
+  n.gyro_sigma_radps = spec.gyro_noise_density_radps_per_sqrt_hz * std::sqrt(spec.imu_rate_hz);
+  n.accel_sigma_mps2 = spec.accel_noise_density_mps2_per_sqrt_hz * std::sqrt(spec.imu_rate_hz);
+  return n;
+}
+
+AltimeterSpec altimeterSpec(const SensorSpecification& spec, const AltimeterSpec& fallback) {
+  if (!spec.has_altimeter) return fallback;
+  AltimeterSpec a;
+  a.field_of_view_rad = spec.altimeter_beam_divergence_rad;
+  a.min_range_m = spec.altimeter_min_range_m;
+  a.max_range_m = spec.altimeter_max_range_m;
+  return a;
+}
+
+sensor_msgs::Imu toImu(const ImuSample& sample, const std_msgs::Header& header, const ImuNoiseSpec& noise) {
   sensor_msgs::Imu msg;
   msg.header = header;
   msg.orientation.w = 1.0;
   msg.orientation_covariance[0] = -1.0;
+  for (int i = 0; i < 3; ++i) {
+    msg.angular_velocity_covariance[4 * i] = noise.gyro_sigma_radps * noise.gyro_sigma_radps;
+    msg.linear_acceleration_covariance[4 * i] = noise.accel_sigma_mps2 * noise.accel_sigma_mps2;
+  }
   msg.angular_velocity.x = sample.angular_velocity_radps.x();
   msg.angular_velocity.y = sample.angular_velocity_radps.y();
   msg.angular_velocity.z = sample.angular_velocity_radps.z();

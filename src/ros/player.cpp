@@ -67,6 +67,10 @@ Player::Player(const Dataset& dataset, const PlayerOptions& options)
   if (dataset.size() == 0)
     throw std::invalid_argument("player: the dataset " + dataset.directory() + " is empty");
   if (options_.altimeter_frame.empty()) options_.altimeter_frame = options_.camera_frame;
+  if (options_.sensor_spec_from_dataset) {
+    options_.altimeter = altimeterSpec(dataset.sensorSpecification(), options_.altimeter);
+    imu_noise_ = imuNoiseSpec(dataset.sensorSpecification());
+  }
   schedule_ = buildSchedule(dataset, options_.start_index);
   const size_t num_images = dataset.size() - options_.start_index;
   const double image_interval =
@@ -105,7 +109,7 @@ bool Player::next(PlayerMessage* message) {
   m.stamp = stampOf(event.time_s, loop_);
   switch (event.kind) {
     case StreamKind::kImu:
-      m.imu = toImu(dataset_.imu()[event.index], makeHeader(m.stamp, options_.camera_frame));
+      m.imu = toImu(dataset_.imu()[event.index], makeHeader(m.stamp, options_.camera_frame), imu_noise_);
       break;
     case StreamKind::kAltimeter:
       m.altimeter = toRange(dataset_.altimeter()[event.index], makeHeader(m.stamp, options_.altimeter_frame),

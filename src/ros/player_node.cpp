@@ -107,6 +107,7 @@ PlayerOptions readOptions(ros::NodeHandle& pnh, const PlayerCommandLine& cl) {
   o.start_index = static_cast<size_t>(start);
   pnh.param("loop", o.loop, o.loop);
   pnh.param("publish_path", o.publish_path, o.publish_path);
+  pnh.param("sensor_spec_from_dataset", o.sensor_spec_from_dataset, o.sensor_spec_from_dataset);
   applyCommandLine(cl, &o);
   return o;
 }

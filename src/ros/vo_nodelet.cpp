@@ -231,8 +231,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   }
 
   std::unique_ptr<Pipeline> makePipeline(const VoConfig& config, const PinholeCamera& camera) {
-    // The homography's plane prior comes from the configuration (~motion/plane_normal_prior), like every other
-    // pipeline setting: one default, in the core struct.
+    // The homography's plane prior comes from the configuration (~motion/plane_normal_prior), like every
+    // other pipeline setting: one default, in the core struct.
     return std::make_unique<Pipeline>(config, camera);
   }
 

@@ -15,6 +15,7 @@ SensorSuiteParams sensorPreset(const std::string& name) {
     p.camera.enabled = false;
     p.imu = imuGrade("ideal");
     p.altimeter.enabled = false;
+    p.altimeter.max_range_m = 50000.0;  // the perfect instrument sees the terrain from any altitude
   } else if (name == "flight") {
     p.camera.enabled = true;
     p.imu = imuGrade("tactical");

@@ -128,6 +128,30 @@ TEST(Conversions, ImuCarriesRateAndSpecificForceWithoutOrientation) {
   EXPECT_EQ(msg.orientation_covariance[0], -1.0);
 }
 
+TEST(Conversions, ImuCovarianceAndRangeLimitsFollowTheDataSheet) {
+  SensorSpecification spec;
+  EXPECT_EQ(imuNoiseSpec(spec).gyro_sigma_radps, 0.0);  // undescribed IMU: covariance unknown (0)
+  EXPECT_EQ(altimeterSpec(spec).max_range_m, AltimeterSpec().max_range_m);
+  spec.has_imu = true;
+  spec.imu_rate_hz = 200.0;
+  spec.gyro_noise_density_radps_per_sqrt_hz = 1e-4;
+  spec.accel_noise_density_mps2_per_sqrt_hz = 1e-3;
+  spec.has_altimeter = true;
+  spec.altimeter_min_range_m = 10.0;
+  spec.altimeter_max_range_m = 2000.0;
+  spec.altimeter_beam_divergence_rad = 5e-4;
+  const sensor_msgs::Imu msg = toImu(ImuSample(), makeHeader(ros::Time(2, 0), "imu"), imuNoiseSpec(spec));
+  // sigma = density * sqrt(rate): 1e-4 * sqrt(200) rad/s and 1e-3 * sqrt(200) m/s^2, on the diagonal only.
+  EXPECT_NEAR(msg.angular_velocity_covariance[0], 2e-6, 1e-15);
+  EXPECT_NEAR(msg.angular_velocity_covariance[8], 2e-6, 1e-15);
+  EXPECT_NEAR(msg.linear_acceleration_covariance[4], 2e-4, 1e-13);
+  EXPECT_EQ(msg.angular_velocity_covariance[1], 0.0);
+  const AltimeterSpec a = altimeterSpec(spec);
+  EXPECT_EQ(a.min_range_m, 10.0);
+  EXPECT_EQ(a.max_range_m, 2000.0);
+  EXPECT_EQ(a.field_of_view_rad, 5e-4);
+}
+
 TEST(Conversions, RangeIsTheSlantRange) {
   AltimeterSample s;
   s.slant_range_m = 1523.5;

@@ -226,6 +226,53 @@ TEST(PlayerCore, SyntheticStreamInterleavesImuAndAltimeterInTimeOrder) {
   }
 }
 
+TEST(PlayerCore, SixteenBitImagesPlayAsMono16AndSensorsYamlFillsCovariancesAndRangeLimits) {
+  const std::string dir = outputDir("player_core_flight") + "/dataset";
+  const PinholeCamera camera(32, 24, 30.0, 30.0, 15.5, 11.5, "plumb_bob", {-0.04, 0.01, 0.0, 0.0, 0.0});
+  cv::Mat image(24, 32, CV_16UC1);
+  for (int r = 0; r < image.rows; ++r)
+    for (int c = 0; c < image.cols; ++c)
+      image.at<uint16_t>(r, c) = static_cast<uint16_t>(16 * (64 + 37 * r + c));
+  {
+    DatasetWriter writer(dir, camera);
+    writer.addFrame(0.0, image, Pose::Identity());
+    writer.addFrame(0.1, image, Pose::Identity());
+    writer.addImu({0.05, Eigen::Vector3d(0, 0, 0.1), Eigen::Vector3d(0, 0, -1.62)});
+    writer.addAltimeter({0.05, 812.5});
+    writer.setTextFile("sensors.yaml",
+                       "imu:\n  rate_hz: 200\n  gyro_noise_density_radps_per_sqrt_hz: 1e-4\n"
+                       "  accel_noise_density_mps2_per_sqrt_hz: 1e-3\naltimeter:\n  min_range_m: 10\n"
+                       "  max_range_m: 2000\n  beam_divergence_rad: 0.0005\n");
+  }
+  const Dataset dataset = Dataset::open(dir);
+  for (bool from_dataset : {true, false}) {
+    PlayerOptions options;
+    options.sensor_spec_from_dataset = from_dataset;
+    Player player(dataset, options);
+    const std::vector<PlayerMessage> messages = drain(player);
+    ASSERT_EQ(messages.size(), 4u);
+    for (const PlayerMessage& m : messages) {
+      if (m.kind == StreamKind::kImage) {
+        ASSERT_EQ(m.image->encoding, "mono16");
+        ASSERT_EQ(m.image->step, 64u);
+        const cv::Mat view(24, 32, CV_16UC1, const_cast<uint8_t*>(m.image->data.data()), m.image->step);
+        EXPECT_EQ(cv::countNonZero(view != image), 0) << "16-bit pixels are published unchanged";
+      } else if (m.kind == StreamKind::kImu) {
+        EXPECT_NEAR(m.imu.angular_velocity_covariance[0], from_dataset ? 2e-6 : 0.0, 1e-15);
+        EXPECT_NEAR(m.imu.linear_acceleration_covariance[8], from_dataset ? 2e-4 : 0.0, 1e-13);
+      } else {
+        EXPECT_EQ(m.altimeter.range, 812.5f);
+        EXPECT_EQ(m.altimeter.max_range,
+                  from_dataset ? 2000.0f : static_cast<float>(AltimeterSpec().max_range_m));
+        EXPECT_EQ(m.altimeter.min_range,
+                  from_dataset ? 10.0f : static_cast<float>(AltimeterSpec().min_range_m));
+        EXPECT_FLOAT_EQ(m.altimeter.field_of_view,
+                        from_dataset ? 5e-4f : static_cast<float>(AltimeterSpec().field_of_view_rad));
+      }
+    }
+  }
+}
+
 TEST(PlayerCore, StartIndexSkipsEarlierInertialSamples) {
   const Dataset dataset = openSynthetic("player_core_start");
   PlayerOptions options;

@@ -7,6 +7,7 @@
 /// down), one pose per image, whatever the source format stores (EuRoC's body poses are composed with the
 /// camera extrinsic).
 
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -64,6 +65,21 @@ struct AltimeterTruth {
   bool outlier = false;   ///< the reported range is a false return
 };
 
+/// What sensors.yaml of a planetary_vo dataset says about the instruments (their data sheets, not the errors
+/// of one run): enough for a driver to fill the uncertainty and limits of its messages.
+struct SensorSpecification {
+  bool has_imu = false;
+  double imu_rate_hz = 0.0;
+  double gyro_noise_density_radps_per_sqrt_hz = 0.0;  ///< angle random walk
+  double accel_noise_density_mps2_per_sqrt_hz = 0.0;  ///< velocity random walk
+  bool has_altimeter = false;
+  double altimeter_min_range_m = 0.0;
+  double altimeter_max_range_m = std::numeric_limits<double>::infinity();
+  double altimeter_beam_divergence_rad = 0.0;  ///< full angle of the beam
+  double altimeter_range_noise_floor_m = 0.0;
+  double altimeter_range_noise_fraction = 0.0;
+};
+
 enum class DatasetFormat { kPlanetaryVo, kKitti, kEuroc, kTumRgbd };
 const char* toString(DatasetFormat format);
 
@@ -96,6 +112,9 @@ class Dataset {
   const std::vector<AltimeterSample>& altimeter() const { return altimeter_; }
   /// The text of sequence.yaml (planetary_vo format only), "" otherwise.
   const std::string& sequenceYaml() const { return sequence_yaml_; }
+  /// The instruments as sensors.yaml describes them (planetary_vo format); has_imu / has_altimeter false when
+  /// the dataset does not say.
+  const SensorSpecification& sensorSpecification() const { return sensor_spec_; }
 
  private:
   friend class DatasetReaders;
@@ -109,6 +128,7 @@ class Dataset {
   std::vector<ImuSample> imu_;
   std::vector<AltimeterSample> altimeter_;
   std::string sequence_yaml_;
+  SensorSpecification sensor_spec_;
 };
 
 /// Writes a dataset in the planetary_vo format. Images are written as they are added (so long renders can be

@@ -53,17 +53,31 @@ geometry_msgs::TransformStamped toTransformStamped(const Pose& T_parent_child, c
                                                    const std::string& child_frame_id);
 Pose fromTransformMsg(const geometry_msgs::Transform& msg);
 
-/// IMU sample -> sensor_msgs/Imu: angular velocity and specific force (linear_acceleration) in the header
-/// frame, orientation unknown (orientation_covariance[0] = -1, as REP-145 asks), other covariances 0
-/// (unknown).
-sensor_msgs::Imu toImu(const ImuSample& sample, const std_msgs::Header& header);
+/// White-noise standard deviations of one IMU sample, for the message covariances (0: unknown).
+struct ImuNoiseSpec {
+  double gyro_sigma_radps = 0.0;
+  double accel_sigma_mps2 = 0.0;
+};
+/// The per-sample noise of the IMU that sensors.yaml describes: noise density x sqrt(rate). Zero (unknown)
+/// when the dataset does not describe its IMU.
+ImuNoiseSpec imuNoiseSpec(const SensorSpecification& spec);
 
-/// Shape of the altimeter beam written into every Range message.
+/// IMU sample -> sensor_msgs/Imu: angular velocity and specific force (linear_acceleration) in the header
+/// frame, orientation unknown (orientation_covariance[0] = -1, as REP-145 asks); angular velocity and linear
+/// acceleration covariances diagonal from `noise` (all 0 = unknown when noise is 0).
+sensor_msgs::Imu toImu(const ImuSample& sample, const std_msgs::Header& header,
+                       const ImuNoiseSpec& noise = ImuNoiseSpec());
+
+/// Shape of the altimeter beam written into every Range message (the defaults when a dataset does not
+/// describe its altimeter: see altimeterSpec()).
 struct AltimeterSpec {
   double field_of_view_rad = 0.005;  ///< a laser beam: about 0.3 degree
   double min_range_m = 0.5;
   double max_range_m = 100000.0;
 };
+/// The Range limits of the altimeter that sensors.yaml describes (beam divergence, min and max range);
+/// `fallback` when the dataset does not describe it.
+AltimeterSpec altimeterSpec(const SensorSpecification& spec, const AltimeterSpec& fallback = AltimeterSpec());
 /// Altimeter sample -> sensor_msgs/Range (INFRARED, i.e. laser): range = slant range along the camera
 /// boresight. The altitude above the terrain has no field in Range and is not carried.
 sensor_msgs::Range toRange(const AltimeterSample& sample, const std_msgs::Header& header,

@@ -63,7 +63,11 @@ struct PlayerOptions {
   size_t start_index = 0;       ///< first image played; IMU/altimeter samples before its time are skipped
   bool loop = false;            ///< replay forever, each loop shifted by loopPeriod()
   bool publish_path = true;     ///< include the growing ground-truth Path with every image
+  /// Range limits of the altimeter messages; replaced by the dataset's own (sensors.yaml) when
+  /// sensor_spec_from_dataset and the dataset describes its altimeter.
   AltimeterSpec altimeter;
+  /// Fill the IMU covariances and the Range limits from the dataset's sensors.yaml (data-sheet values).
+  bool sensor_spec_from_dataset = true;
 };
 
 enum class StreamKind { kImu = 0, kAltimeter = 1, kImage = 2 };  ///< order at equal times
@@ -136,6 +140,7 @@ class Player {
  private:
   const Dataset& dataset_;
   PlayerOptions options_;
+  ImuNoiseSpec imu_noise_;  ///< per-sample IMU noise written into the Imu covariances
   std::vector<StreamEvent> schedule_;
   ros::Time epoch_;
   double loop_period_s_ = 0.0;

@@ -261,6 +261,33 @@ TEST(DatasetRoundTrip, GroundTruthFilesAreSeparateFromTheSensorStreams) {
   EXPECT_EQ(test::readText(dir + "/groundtruth_sensors.yaml"), "sensor_seed: 3\n");
 }
 
+TEST(DatasetRoundTrip, SensorsYamlGivesTheDataSheetValues) {
+  const std::string dir = test::outputDir("dataset_sensors_yaml");
+  {
+    DatasetWriter writer(dir, PinholeCamera(64, 48, 70.0, 70.0, 31.5, 23.5));
+    writer.addFrame(1.0, test::syntheticImage(64, 48, CV_8UC1, 0), Pose::Identity());
+  }
+  EXPECT_FALSE(Dataset::open(dir).sensorSpecification().has_imu);  // no sensors.yaml: nothing known
+  test::writeText(dir + "/sensors.yaml",
+                  "preset: flight\nimu:\n  rate_hz: 200\n  gyro_noise_density_radps_per_sqrt_hz: 4.5e-05\n"
+                  "  accel_noise_density_mps2_per_sqrt_hz: 0.001\naltimeter:\n  max_range_m: 2000\n"
+                  "  min_range_m: 10\n  beam_divergence_rad: 0.0005\n  range_noise_floor_m: 0.3\n");
+  const SensorSpecification s = Dataset::open(dir).sensorSpecification();
+  EXPECT_TRUE(s.has_imu);
+  EXPECT_EQ(s.imu_rate_hz, 200.0);
+  EXPECT_EQ(s.gyro_noise_density_radps_per_sqrt_hz, 4.5e-5);
+  EXPECT_EQ(s.accel_noise_density_mps2_per_sqrt_hz, 1e-3);
+  EXPECT_TRUE(s.has_altimeter);
+  EXPECT_EQ(s.altimeter_max_range_m, 2000.0);
+  EXPECT_EQ(s.altimeter_min_range_m, 10.0);
+  EXPECT_EQ(s.altimeter_beam_divergence_rad, 5e-4);
+  EXPECT_EQ(s.altimeter_range_noise_floor_m, 0.3);
+  test::writeText(dir + "/sensors.yaml", "altimeter:\n  max_range_m: 5\n  min_range_m: 10\n");
+  EXPECT_THROW(Dataset::open(dir), DatasetError);
+  test::writeText(dir + "/sensors.yaml", "imu:\n  rate_hz: fast\n");
+  EXPECT_THROW(Dataset::open(dir), DatasetError);
+}
+
 TEST(DatasetRoundTrip, ExistingFramesKeepTheirImagesAndOldAltimeterFilesStillRead) {
   const std::string dir = test::outputDir("dataset_existing_frames");
   const PinholeCamera camera(32, 24, 30.0, 30.0, 15.5, 11.5);
