@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job, on a fresh Debian 12 machine (as root): installs every dependency, builds, then runs the Lunar demo
 # through ROS, headless (no terminal and no display needed):
-#   1. renders a Lunar descent sequence (approach_down, 512x512, first 20 s; cached when unchanged),
+#   1. renders a Lunar descent sequence (approach_down, 512x512, first 20 s, flight-like sensors; cached when
+#      unchanged),
 #   2. streams it through the VO nodelet with `roslaunch planetary_vo lunar_demo.launch` (player -> VO; the
 #      trajectory recorders write vo/pose and ground_truth/pose; the launch ends by itself when the VO has
 #      processed the last image),
@@ -10,6 +11,7 @@
 #   5. (DEMO_RVIZ=1 only) replays it once more with rviz under xvfb and saves a screenshot.
 # Results go to output/demo/. Options through the environment:
 #   DEMO_SEQUENCE (approach_down), DEMO_SIZE (512), DEMO_DURATION (20 seconds; 0 = whole sequence),
+#   DEMO_SENSORS (flight; ideal = the perfect sensors of renderer 1.2),
 #   DEMO_RVIZ (0; 1 = also the rviz screenshot, needs the GUI packages: rviz xvfb xauth imagemagick),
 #   DEMO_ROS_PORT (a free port; the ROS master of the demo, so that it never joins another running master).
 set -euo pipefail
@@ -27,16 +29,17 @@ OUT="$PLANETARY_VO_OUTPUT/demo"
 SEQUENCE="${DEMO_SEQUENCE:-approach_down}"
 SIZE="${DEMO_SIZE:-512}"
 DURATION="${DEMO_DURATION:-20}"
+SENSORS="${DEMO_SENSORS:-flight}"
 RVIZ="${DEMO_RVIZ:-0}"
-DATASET="$PLANETARY_VO_OUTPUT/sequences/${SEQUENCE}_${SIZE}px_${DURATION}s"
+DATASET="$PLANETARY_VO_OUTPUT/sequences/${SEQUENCE}_${SIZE}px_${DURATION}s_${SENSORS}"
 mkdir -p "$OUT"
 
 # A master of our own on a free port: roslaunch starts it and stops it again.
 PORT="${DEMO_ROS_PORT:-$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')}"
 export ROS_MASTER_URI="http://localhost:$PORT"
 
-echo "== 1/4 rendering $SEQUENCE (${SIZE}x${SIZE}, ${DURATION} s) into $DATASET"
-render_args=(--sequence "$SEQUENCE" --output "$DATASET" --width "$SIZE" --height "$SIZE")
+echo "== 1/4 rendering $SEQUENCE (${SIZE}x${SIZE}, ${DURATION} s, $SENSORS sensors) into $DATASET"
+render_args=(--sequence "$SEQUENCE" --output "$DATASET" --width "$SIZE" --height "$SIZE" --sensors "$SENSORS")
 [ "$DURATION" != 0 ] && render_args+=(--duration "$DURATION")
 "$BIN/lunar_render" "${render_args[@]}"
 
@@ -60,7 +63,7 @@ fi
 echo "vo/pose recorded for $POSES of $NUM_IMAGES images"
 
 echo "== 3/4 scoring the trajectory against ground truth (Sim(3) alignment)"
-"$BIN/vo_eval" --gt "$DATASET/groundtruth.txt" --est "$OUT/trajectory.txt" --align sim3 \
+"$BIN/vo_eval" --gt "$DATASET" --est "$OUT/trajectory.txt" --align sim3 \
   --json "$OUT/accuracy.json" --plot "$OUT/plots" | tee "$OUT/accuracy.txt"
 
 echo "== 4/4 two-view geometry benchmark"
@@ -113,7 +116,7 @@ Demo finished. Results in $OUT:
   geometry_benchmark.md  two-view geometry accuracy and timing table
 ${RVIZ_LINE}Rendered sequence: $DATASET
 
-Headline ($SEQUENCE, ${SIZE}x${SIZE}, ${SPAN} s through ROS at real time):
+Headline ($SEQUENCE, ${SIZE}x${SIZE}, $SENSORS sensors, ${SPAN} s through ROS at real time):
   ATE (Sim(3)) RMSE      $ATE_PCT % of the path ($ATE_M m)
   attitude drift RMS     $DRIFT_DEG deg
   frames with a pose     $ASSOC of $NUM_GT
