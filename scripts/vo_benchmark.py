@@ -61,13 +61,12 @@ def default_rows():
         rows.append(lunar_row("ideal", s, 1024, "ideal"))
     for s in LUNAR_SEQUENCES:
         rows.append(lunar_row("ideal512", s, 512, "ideal"))
-    # Held out: other DEM, other terrain seeds and placements, low and high Sun, other sensor seeds.
+    # Held out: other DEM, terrain seeds and placements, low and high Sun, other sensor seeds. (At Sun 7/100 deg the
+    # whole Apollo 17 placement lies in the East Massif's shadow: the images are black, see docs/results.md.)
     rows.append(lunar_row("heldout", "approach_down", 1024, "flight", dem="apollo17_gld100", seed=7,
-                          sun_elevation=7.0, sun_azimuth=100.0, sensor_seed=7))
+                          sun_elevation=7.0, sun_azimuth=280.0, sensor_seed=7))
     rows.append(lunar_row("heldout", "approach_nozzle", 1024, "flight", seed=13, placement_rank=2,
                           sun_elevation=45.0, sun_azimuth=30.0, sensor_seed=13))
-    rows.append(lunar_row("heldout", "approach_30deg", 1024, "flight", dem="apollo17_gld100", seed=21,
-                          placement_rank=1, sun_elevation=25.0, sun_azimuth=300.0, sensor_seed=21))
     rows.append({"group": "kitti", "sequence": "kitti_clip_turn", "size": None, "sensors": "real camera"})
     return rows
 
