@@ -83,15 +83,7 @@ METRICS = [
 ]
 SERIES_METRICS = [m for m in METRICS if m[0] != "sim3_ate_percent"]
 # vo_eval JSON keys of each metric in `final` and in `series`, first match wins.
-FINAL_KEYS = {
-    "position_error_m": ["position_error_m"],
-    "position_error_percent": ["position_error_percent_of_distance", "position_error_percent"],
-    "velocity_error_mps": ["velocity_error_mps"],
-    "attitude_error_deg": ["attitude_error_deg"],
-    "tilt_error_deg": ["tilt_error_deg"],
-    "scale_error_percent": ["scale_error_percent"],
-}
-SERIES_KEYS = {
+METRIC_KEYS = {
     "position_error_m": ["position_error_m"],
     "position_error_percent": ["position_error_percent_of_distance", "position_error_percent"],
     "velocity_error_mps": ["velocity_error_mps"],
@@ -492,13 +484,13 @@ def eval_metrics(sim3, first):
         final["sim3_ate_percent"] = finite_or_none(sim3.get("ate_rmse_percent_of_path"))
     if first is not None:
         fin = first.get("final", {})
-        for key, names in FINAL_KEYS.items():
+        for key, names in METRIC_KEYS.items():
             final[key] = finite_or_none(pick(fin, names))
         ser = first.get("series", {})
         t = ser.get("t_rel_s")
         if t:
             series["t_rel_s"] = [finite_or_none(v) for v in t]
-            for key, names in SERIES_KEYS.items():
+            for key, names in METRIC_KEYS.items():
                 values = pick(ser, names)
                 if values is not None and len(values) == len(t):
                     series[key] = [finite_or_none(v) for v in values]

@@ -202,6 +202,21 @@ const StampedCovariance* nearestCovariance(const std::vector<StampedCovariance>&
   return best;
 }
 
+/// One vector field of time-stamped samples (member `field`, stamps in `timestamp_s`) interpolated to
+/// `stamps`.
+template <typename Sample>
+std::vector<Eigen::Vector3d> interpolateField(const std::vector<Sample>& samples,
+                                              Eigen::Vector3d Sample::*field,
+                                              const std::vector<double>& stamps, double gap_factor) {
+  std::vector<double> t;
+  std::vector<Eigen::Vector3d> values;
+  for (const Sample& s : samples) {
+    t.push_back(s.timestamp_s);
+    values.push_back(s.*field);
+  }
+  return interpolateVectors(t, values, stamps, gap_factor);
+}
+
 /// Velocities of both sides and their errors, per associated pose.
 void computeVelocityErrors(const Trajectory& ground_truth, const AssociatedTrajectories& pairs,
                            const Trajectory& aligned, const EvaluationOptions& options,
@@ -213,13 +228,8 @@ void computeVelocityErrors(const Trajectory& ground_truth, const AssociatedTraje
   std::vector<Eigen::Vector3d> v_est(n);
   if (!inputs.estimate_velocity.empty()) {
     ev->velocity_estimate_source = "estimate_velocity";
-    std::vector<double> stamps;
-    std::vector<Eigen::Vector3d> values;
-    for (const StampedVelocity& v : inputs.estimate_velocity) {
-      stamps.push_back(v.timestamp_s);
-      values.push_back(v.velocity_world);
-    }
-    v_est = interpolateVectors(stamps, values, est_stamps, options.gap_factor);
+    v_est = interpolateField(inputs.estimate_velocity, &StampedVelocity::velocity_world, est_stamps,
+                             options.gap_factor);
     for (Eigen::Vector3d& v : v_est) v = ev->alignment.scale * ev->alignment.R_gt_est * v;  // -> gt world
   } else {
     ev->velocity_estimate_source = "pose_differences";
@@ -231,13 +241,8 @@ void computeVelocityErrors(const Trajectory& ground_truth, const AssociatedTraje
   std::vector<Eigen::Vector3d> v_gt(n);
   if (!inputs.ground_truth_state.empty()) {
     ev->velocity_truth_source = "groundtruth_state";
-    std::vector<double> stamps;
-    std::vector<Eigen::Vector3d> values;
-    for (const GroundTruthState& g : inputs.ground_truth_state) {
-      stamps.push_back(g.timestamp_s);
-      values.push_back(g.velocity_world_mps);
-    }
-    v_gt = interpolateVectors(stamps, values, est_stamps, options.gap_factor);
+    v_gt = interpolateField(inputs.ground_truth_state, &GroundTruthState::velocity_world_mps, est_stamps,
+                            options.gap_factor);
   } else {
     // All ground-truth poses, not only the associated ones: the truth stays dense where the estimate has
     // gaps.
