@@ -7,7 +7,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "planetary_vo/geometry/triangulation.h"
+#include "planetary_vo/vo/motion_prior.h"
+#include "planetary_vo/vo/scale_bridge.h"
 
 namespace planetary_vo {
 namespace {
@@ -25,28 +26,28 @@ double median(std::vector<double>* values) {
   return (*values)[mid];
 }
 
-/// Index of `id` in the ascending `ids`, or -1.
-int findSorted(const std::vector<uint64_t>& ids, uint64_t id) {
-  auto it = std::lower_bound(ids.begin(), ids.end(), id);
-  return (it != ids.end() && *it == id) ? static_cast<int>(it - ids.begin()) : -1;
-}
-
 Pose scaledInverse(const Pose& T_c2_c1_unit, double scale) {
   Pose T_c2_c1 = T_c2_c1_unit;
   T_c2_c1.translation() *= scale;
   return T_c2_c1.inverse();
 }
 
-// A recovery whose scale came from points shared with the old map keeps most of the confidence; one that had
-// to assume the last keyframe speed, less; one that only matched the scene depth, least.
-constexpr double kSharedPointsBridgeConfidence = 0.8;
-constexpr double kSpeedBridgeConfidence = 0.5;
-constexpr double kDepthBridgeConfidence = 0.3;
-constexpr int kMinSharedPointsForBridge = 5;
 // The two oldest keyframes of the BA window stay fixed: the first fixes the gauge, the second the scale.
 constexpr int kNumFixedBaKeyframes = 2;
 
 }  // namespace
+
+const char* toString(PipelineStage stage) {
+  switch (stage) {
+    case PipelineStage::kInitialising:
+      return "initialising";
+    case PipelineStage::kTracking:
+      return "tracking";
+    case PipelineStage::kRecovering:
+      return "recovering";
+  }
+  return "unknown";
+}
 
 Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
     : config_(config),
@@ -54,7 +55,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       tracker_(config.tracker, config.detector),
       initializer_(config.motion, config.map, planeNormalPriorVector(config.motion.plane_normal_prior)),
       pnp_tracker_(config.pnp, config.bundle_adjustment),
-      keyframe_policy_(config.keyframe) {
+      keyframe_policy_(config.keyframe),
+      mapper_(config.map) {
   config_.validate();
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
@@ -73,10 +75,9 @@ void Pipeline::reset() {
   tracker_.reset();
   map_.clear();
   frame_index_ = -1;
+  stage_ = PipelineStage::kInitialising;
   state_ = TrackingState::kInitialising;
   T_world_cam_ = Pose::Identity();
-  map_initialised_ = false;
-  recovering_ = false;
   failed_frames_ = 0;
   scale_confidence_ = 0.0;
   frames_since_keyframe_ = 0;
@@ -93,9 +94,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
   tracker_.reset();
   // Pixels of the old intrinsics cannot be matched to the new ones: continue from the current pose as after a
   // loss, so the trajectory does not jump.
-  const bool had_trajectory = state_ != TrackingState::kInitialising;
-  map_initialised_ = false;
-  recovering_ = had_trajectory;
+  if (stage_ != PipelineStage::kInitialising) stage_ = PipelineStage::kRecovering;
   reference_.valid = false;
   last_good_.valid = false;
   failed_frames_ = 0;
@@ -213,26 +212,9 @@ void Pipeline::holdPose(FrameResult* result, const std::string& why) {
   result->message = why;
 }
 
-bool Pipeline::keyframeVelocity(Eigen::Vector3d* v_world_per_s) const {
-  const auto& kfs = map_.keyframes();
-  if (kfs.size() < 2) return false;
-  const Keyframe& a = kfs[kfs.size() - 2];
-  const Keyframe& b = kfs.back();
-  const double dt = b.timestamp_s - a.timestamp_s;
-  if (!(dt > 0.0)) return false;
-  *v_world_per_s = (b.T_world_cam.translation() - a.T_world_cam.translation()) / dt;
-  return true;
-}
-
 Pose Pipeline::predictPose() const {
   if (!last_good_.valid) return T_world_cam_;
-  // Constant velocity from the last two keyframes, attitude held: while lost the output keeps moving as the
-  // vehicle did instead of freezing and then jumping when the chain recovers.
-  Pose T = last_good_.T_world_cam;
-  Eigen::Vector3d v_world_per_s;
-  if (keyframeVelocity(&v_world_per_s))
-    T.translation() += v_world_per_s * (timestamp_s_ - last_good_.timestamp_s);
-  return T;
+  return predictConstantVelocity(last_good_.T_world_cam, last_good_.timestamp_s, map_, timestamp_s_);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -243,7 +225,8 @@ void Pipeline::processUnitStep(FrameResult* result) {
   scale_confidence_ = 0.0;  // every step has its own arbitrary unit length
   if (!reference_.valid) {
     snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
-    result->state = recovering_ ? TrackingState::kLost : TrackingState::kInitialising;
+    result->state =
+        stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
     holdPose(result, "reference frame set");
     result->times.motion_ms = msSince(start);
     return;
@@ -254,7 +237,7 @@ void Pipeline::processUnitStep(FrameResult* result) {
   if (!motion.valid) {
     ++failed_frames_;
     result->state =
-        state_ == TrackingState::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
+        stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
     holdPose(result, "model rejected: " + motion.reason);
     // The reference is kept so that the next frame can bring the parallax this one lacked; when that does not
     // help for too long (or the tracks are gone), the motion over the gap is given up and the chain restarts
@@ -262,7 +245,7 @@ void Pipeline::processUnitStep(FrameResult* result) {
     const bool starved = static_cast<int>(match_ids_.size()) < config_.motion.min_inliers;
     if (failed_frames_ >= config_.pipeline.max_consecutive_failed_frames || starved) {
       snapshotCurrent(timestamp_s_, T_world_cam_, &reference_);
-      recovering_ = recovering_ || state_ != TrackingState::kInitialising;
+      if (stage_ == PipelineStage::kTracking) stage_ = PipelineStage::kRecovering;
       failed_frames_ = 0;
     }
     return;
@@ -271,8 +254,8 @@ void Pipeline::processUnitStep(FrameResult* result) {
   result->motion = motion.model;
   result->num_inliers = motion.num_inliers;
   result->is_keyframe = true;
-  result->state = recovering_ ? TrackingState::kRecovered : TrackingState::kTracking;
-  recovering_ = false;
+  result->state = stage_ == PipelineStage::kRecovering ? TrackingState::kRecovered : TrackingState::kTracking;
+  stage_ = PipelineStage::kTracking;
   failed_frames_ = 0;
   // Thesis 4.4.1: the outliers of the accepted model are deleted from the tracks.
   remove_ids_.clear();
@@ -287,7 +270,7 @@ void Pipeline::processUnitStep(FrameResult* result) {
 // Map mode.
 
 void Pipeline::processMap(FrameResult* result) {
-  if (!map_initialised_) {
+  if (stage_ != PipelineStage::kTracking) {
     tryInitialise(result);
     return;
   }
@@ -302,7 +285,8 @@ void Pipeline::processMap(FrameResult* result) {
 
 void Pipeline::tryInitialise(FrameResult* result) {
   const Clock::time_point start = Clock::now();
-  const TrackingState waiting = recovering_ ? TrackingState::kLost : TrackingState::kInitialising;
+  const bool recovering = stage_ == PipelineStage::kRecovering;
+  const TrackingState waiting = recovering ? TrackingState::kLost : TrackingState::kInitialising;
   result->state = waiting;
   if (!reference_.valid) {
     holdPose(result, "initialisation reference set");
@@ -336,9 +320,11 @@ void Pipeline::tryInitialise(FrameResult* result) {
     return;
   }
   const Clock::time_point mapping_start = Clock::now();
-  double confidence_factor = 1.0;
-  const double scale = recovering_ ? bridgeScale(init, &confidence_factor) : 1.0;
-  scale_confidence_ = recovering_ ? scale_confidence_ * confidence_factor : 1.0;
+  ScaleBridge bridge;
+  if (recovering)
+    bridge = bridgeScale(map_, reference_.T_world_cam, reference_.timestamp_s, timestamp_s_, init);
+  const double scale = recovering ? bridge.scale : 1.0;
+  scale_confidence_ = recovering ? scale_confidence_ * bridge.confidence_factor : 1.0;
 
   const Pose T_world_ref = reference_.T_world_cam;
   const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
@@ -357,17 +343,17 @@ void Pipeline::tryInitialise(FrameResult* result) {
   tracker_.removeTracks(remove_ids_);
 
   result->T_world_cam = T_world_cur;
-  result->state = recovering_ ? TrackingState::kRecovered : TrackingState::kTracking;
+  result->state = recovering ? TrackingState::kRecovered : TrackingState::kTracking;
   result->motion = init.motion.model;
   result->num_inliers = init.motion.num_inliers;
   result->is_keyframe = true;
   result->message =
-      std::string(recovering_ ? "re-initialised" : "initialised") + " (" + toString(init.motion.model) +
-      ", " + std::to_string(init.points_c1.size()) + " points" +
+      std::string(recovering ? "re-initialised" : "initialised") + " (" + toString(init.motion.model) + ", " +
+      std::to_string(init.points_c1.size()) + " points" +
       (init.rival_points > 0 ? ", rival motion " + std::to_string(init.rival_points) : std::string()) +
-      (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") + ")";
-  map_initialised_ = true;
-  recovering_ = false;
+      (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") +
+      (recovering ? std::string(", scale bridged by ") + toString(bridge.source) : std::string()) + ")";
+  stage_ = PipelineStage::kTracking;
   failed_frames_ = 0;
   frames_since_keyframe_ = 0;
   reference_.valid = false;
@@ -375,65 +361,24 @@ void Pipeline::tryInitialise(FrameResult* result) {
   result->times.mapping_ms = msSince(mapping_start);
 }
 
-double Pipeline::bridgeScale(const Initialization& init, double* confidence_factor) const {
-  // 1. Points of the old map that the new one triangulated again: their depths in the reference camera must
-  //    agree, which fixes the scale without assuming anything about the motion.
-  const Pose T_ref_world = reference_.T_world_cam.inverse();
-  std::vector<double> ratios;
-  for (size_t i = 0; i < init.track_ids.size(); ++i) {
-    const MapPoint* old = map_.pointForTrack(init.track_ids[i]);
-    if (old == nullptr) continue;
-    const double old_depth = (T_ref_world * old->p_world).z();
-    if (old_depth > 0.0 && init.points_c1[i].z() > 0.0) ratios.push_back(old_depth / init.points_c1[i].z());
-  }
-  if (static_cast<int>(ratios.size()) >= kMinSharedPointsForBridge) {
-    *confidence_factor = kSharedPointsBridgeConfidence;
-    return median(&ratios);
-  }
-  // 2. The speed between the last two keyframes of the old map, over the new baseline's time span: the
-  //    new baseline (unit length) gets the distance that speed covers.
-  Eigen::Vector3d v_world_per_s;
-  const double dt_new = timestamp_s_ - reference_.timestamp_s;
-  if (keyframeVelocity(&v_world_per_s) && dt_new > 0.0 && v_world_per_s.norm() > 0.0) {
-    *confidence_factor = kSpeedBridgeConfidence;
-    return v_world_per_s.norm() * dt_new;
-  }
-  // 3. The median scene depth of the old map seen from the reference pose (the altitude changes little over a
-  //    short loss).
-  std::vector<double> depths;
-  for (const auto& entry : map_.points()) {
-    const double z = (T_ref_world * entry.second.p_world).z();
-    if (z > 0.0) depths.push_back(z);
-  }
-  if (!depths.empty() && init.median_depth > 0.0) {
-    *confidence_factor = kDepthBridgeConfidence;
-    return median(&depths) / init.median_depth;
-  }
-  *confidence_factor = 0.0;
-  return 1.0;
-}
-
 void Pipeline::trackAgainstMap(FrameResult* result) {
   const Clock::time_point start = Clock::now();
-  assoc_p_world_.clear();
-  assoc_px_.clear();
-  assoc_track_ids_.clear();
-  assoc_point_ids_.clear();
+  assoc_.clear();
   for (size_t i = 0; i < track_ids_.size(); ++i) {
     const MapPoint* p = map_.pointForTrack(track_ids_[i]);
     if (p == nullptr) continue;
-    assoc_p_world_.push_back(p->p_world);
-    assoc_px_.push_back(px_[i]);
-    assoc_track_ids_.push_back(track_ids_[i]);
-    assoc_point_ids_.push_back(p->id);
+    assoc_.p_world.push_back(p->p_world);
+    assoc_.px.push_back(px_[i]);
+    assoc_.track_ids.push_back(track_ids_[i]);
+    assoc_.point_ids.push_back(p->id);
   }
-  const PnpTrackResult pnp = pnp_tracker_.track(assoc_p_world_, assoc_px_, K_);
-  assoc_inlier_.assign(assoc_point_ids_.size(), 0);
-  if (pnp.valid) assoc_inlier_ = pnp.inlier_mask;
-  for (size_t i = 0; i < assoc_point_ids_.size(); ++i) {
-    MapPoint* p = map_.point(assoc_point_ids_[i]);
+  const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_);
+  assoc_.inlier.assign(assoc_.size(), 0);
+  if (pnp.valid) assoc_.inlier = pnp.inlier_mask;
+  for (size_t i = 0; i < assoc_.size(); ++i) {
+    MapPoint* p = map_.point(assoc_.point_ids[i]);
     ++p->times_visible;
-    if (assoc_inlier_[i]) ++p->times_found;
+    if (assoc_.inlier[i]) ++p->times_found;
   }
   result->times.motion_ms = msSince(start);
   if (!pnp.valid) {
@@ -445,10 +390,10 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
   // A track that disagrees with the map has drifted (or the point is wrong): it stops carrying the point, and
   // the tracker drops it so that its grid cell gets a fresh feature.
   remove_ids_.clear();
-  for (size_t i = 0; i < assoc_track_ids_.size(); ++i) {
-    if (assoc_inlier_[i]) continue;
-    map_.detachTrack(assoc_track_ids_[i]);
-    remove_ids_.push_back(assoc_track_ids_[i]);
+  for (size_t i = 0; i < assoc_.size(); ++i) {
+    if (assoc_.inlier[i]) continue;
+    map_.detachTrack(assoc_.track_ids[i]);
+    remove_ids_.push_back(assoc_.track_ids[i]);
   }
   tracker_.removeTracks(remove_ids_);
 
@@ -461,8 +406,7 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
 }
 
 void Pipeline::startRecovery() {
-  map_initialised_ = false;
-  recovering_ = true;
+  stage_ = PipelineStage::kRecovering;
   failed_frames_ = 0;
   // The old map stays until the new one exists: the scale bridge needs it.
   reference_ = last_good_;
@@ -496,75 +440,13 @@ void Pipeline::maybeInsertKeyframe(FrameResult* result) {
 
 void Pipeline::insertKeyframe(FrameResult* result) {
   const Clock::time_point start = Clock::now();
-  const uint64_t kf_id = map_.addKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_);
+  const KeyframeInsertion insertion =
+      mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_, assoc_, camera_, &map_);
   frames_since_keyframe_ = 0;
-  for (size_t i = 0; i < assoc_point_ids_.size(); ++i) {
-    if (!assoc_inlier_[i]) continue;
-    const int k = findSorted(track_ids_, assoc_track_ids_[i]);
-    if (k >= 0) map_.addObservation(assoc_point_ids_[i], kf_id, px_[static_cast<size_t>(k)]);
-  }
-  const int created = triangulateNewPoints(kf_id);
-  map_.retainTracks(track_ids_);
-  map_.dropKeyframesOutsideWindow(config_.map.window_keyframes);
-  const int culled = map_.cull(config_.map);
-  result->message += ": +" + std::to_string(created) + " points, -" + std::to_string(culled) + " culled";
+  result->message += ": +" + std::to_string(insertion.points_created) + " points, -" +
+                     std::to_string(insertion.points_culled) + " culled";
   result->times.mapping_ms = msSince(start);
   runBundleAdjustment(result);
-}
-
-int Pipeline::triangulateNewPoints(uint64_t new_keyframe_id) {
-  const auto& kfs = map_.keyframes();
-  const Keyframe& cur = kfs.back();
-  // Each track without a point is triangulated against the OLDEST kept keyframe that saw it: the widest
-  // baseline. Tracks are grouped by that keyframe so that each group is one triangulatePoints() call.
-  std::vector<std::vector<size_t>> groups(kfs.size());
-  for (size_t i = 0; i < track_ids_.size(); ++i) {
-    if (map_.pointForTrack(track_ids_[i]) != nullptr) continue;
-    for (size_t k = 0; k + 1 < kfs.size(); ++k) {
-      if (kfs[k].px_by_track.count(track_ids_[i]) != 0) {
-        groups[k].push_back(i);
-        break;
-      }
-    }
-  }
-  TriangulationOptions options;
-  options.max_reprojection_error_px = config_.map.max_reprojection_error_px;
-  options.min_parallax_deg = config_.map.min_triangulation_parallax_deg;
-  const Pose T_cur_world = cur.T_world_cam.inverse();
-  int created = 0;
-  std::vector<cv::Point2d> px1, px2;
-  for (size_t k = 0; k + 1 < kfs.size(); ++k) {
-    if (groups[k].empty()) continue;
-    const Keyframe& ref = kfs[k];
-    px1.clear();
-    px2.clear();
-    for (size_t i : groups[k]) {
-      const Eigen::Vector2d& a = ref.px_by_track.at(track_ids_[i]);
-      px1.emplace_back(a.x(), a.y());
-      px2.emplace_back(px_[i].x(), px_[i].y());
-    }
-    const TriangulationResult tri = triangulatePoints(px1, px2, K_, T_cur_world * ref.T_world_cam, options);
-    for (size_t j = 0; j < groups[k].size(); ++j) {
-      if (!tri.valid[j]) continue;
-      const size_t i = groups[k][j];
-      const Eigen::Vector3d p_world = ref.T_world_cam * tri.points_c1[j];
-      std::vector<MapObservation> observations;
-      // Every kept keyframe that saw the track and agrees with the point observes it (BA constraints); the
-      // reprojection check keeps a track's drift out of the map.
-      for (size_t m = k; m < kfs.size(); ++m) {
-        auto it = kfs[m].px_by_track.find(track_ids_[i]);
-        if (it == kfs[m].px_by_track.end()) continue;
-        const Eigen::Vector3d p_cam = kfs[m].T_world_cam.inverse() * p_world;
-        if (p_cam.z() <= 0.0) continue;
-        const double err = (camera_.project(p_cam) - it->second).norm();
-        if (m == k || kfs[m].id == new_keyframe_id || err <= config_.map.max_reprojection_error_px)
-          observations.push_back({kfs[m].id, it->second});
-      }
-      map_.addPoint(track_ids_[i], p_world, std::move(observations));
-      ++created;
-    }
-  }
-  return created;
 }
 
 void Pipeline::runBundleAdjustment(FrameResult* result) {

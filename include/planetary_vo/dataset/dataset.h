@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "planetary_vo/fusion/measurements.h"
 #include "planetary_vo/geometry/camera_model.h"
 #include "planetary_vo/geometry/pose.h"
 
@@ -28,21 +29,7 @@ class DatasetError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// One IMU reading in the body frame (for the Lunar sequences, body = camera optical frame).
-struct ImuSample {
-  double timestamp_s = 0.0;
-  Eigen::Vector3d angular_velocity_radps = Eigen::Vector3d::Zero();
-  Eigen::Vector3d specific_force_mps2 = Eigen::Vector3d::Zero();  ///< non-gravitational acceleration
-};
-
-/// One laser altimeter reading: only what the instrument measures.
-struct AltimeterSample {
-  double timestamp_s = 0.0;
-  /// Measured range along the altimeter's boresight (the camera boresight for the Lunar sequences) to the
-  /// terrain; +infinity when there was no return (REP-117's convention for sensor_msgs/Range).
-  double slant_range_m = 0.0;
-  bool hasReturn() const { return slant_range_m < 1e300; }
-};
+// ImuSample and AltimeterSample: planetary_vo/fusion/measurements.h (core types the dataset converts to).
 
 /// Ground truth of the navigation state at one instant (groundtruth_state.txt, at the IMU rate). Written by
 /// the renderer for the evaluator only: nothing here may reach an estimator.

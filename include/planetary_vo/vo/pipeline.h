@@ -16,13 +16,19 @@
 ///   keyframe speed, else the scene depth), so the trajectory continues instead of jumping back to the
 ///   origin.
 ///
+/// The pipeline only composes; each stage lives in its own file: klt_tracker.h, initializer.h, pnp_tracker.h,
+/// keyframe_policy.h, mapper.h (keyframe insertion, triangulation, culling), bundle_adjuster.h,
+/// motion_prior.h (the pose while no image gives one) and scale_bridge.h (the scale of a recovery). Its one
+/// state variable is the PipelineStage below.
+///
 /// Pixels from the tracker are undistorted (PinholeCamera::undistortPixels) before any geometry.
 ///
 /// Threading: process(), reset() and setCamera() must be called from one thread. With
-/// bundle_adjustment.asynchronous the bundle adjustment of a new keyframe runs in a worker thread owned by the
-/// pipeline while the next image is tracked (KLT); the next process() applies it after tracking and before
-/// estimating the pose, waiting if it is still running. So the adjustment is hidden behind the tracking of the
-/// next image, and the results do not depend on timing. mapPoints() reads the map of the calling thread.
+/// bundle_adjustment.asynchronous the bundle adjustment of a new keyframe runs in a worker thread owned by
+/// the pipeline while the next image is tracked (KLT); the next process() applies it after tracking and
+/// before estimating the pose, waiting if it is still running. So the adjustment is hidden behind the
+/// tracking of the next image, and the results do not depend on timing. mapPoints() reads the map of the
+/// calling thread.
 
 #include <cstdint>
 #include <memory>
@@ -39,9 +45,20 @@
 #include "planetary_vo/vo/keyframe_policy.h"
 #include "planetary_vo/vo/klt_tracker.h"
 #include "planetary_vo/vo/map.h"
+#include "planetary_vo/vo/mapper.h"
 #include "planetary_vo/vo/pnp_tracker.h"
 
 namespace planetary_vo {
+
+/// What the chain does with the next processed image: the one state variable of the pipeline (the output
+/// TrackingState of a frame follows from it and from whether that frame gave a pose).
+enum class PipelineStage : uint8_t {
+  kInitialising,  ///< no trajectory yet: waiting for a reference frame and the parallax of a two-view start
+  kTracking,      ///< a map exists (map mode) or the unit-step chain runs: frames are tracked against it
+  kRecovering,    ///< the map (chain) was lost or dropped: a new one is being built from the last good pose
+};
+/// "initialising", "tracking", "recovering".
+const char* toString(PipelineStage stage);
 
 class Pipeline {
  public:
@@ -75,6 +92,7 @@ class Pipeline {
   const Map& map() const { return map_; }
   const PinholeCamera& camera() const { return camera_; }
   const VoConfig& config() const { return config_; }
+  PipelineStage stage() const { return stage_; }
   /// Live tracks of the last processed frame (distorted pixels), e.g. to draw the tracking image.
   const std::vector<FeatureTrack>& tracks() const { return tracker_.tracks(); }
 
@@ -96,19 +114,15 @@ class Pipeline {
   void processUnitStep(FrameResult* result);
   void processMap(FrameResult* result);
   void tryInitialise(FrameResult* result);
-  double bridgeScale(const Initialization& init, double* confidence_factor) const;
   void trackAgainstMap(FrameResult* result);
   void startRecovery();
   void maybeInsertKeyframe(FrameResult* result);
   void insertKeyframe(FrameResult* result);
-  int triangulateNewPoints(uint64_t new_keyframe_id);
   void runBundleAdjustment(FrameResult* result);
   void applyAsyncBundleAdjustment(FrameResult* result);
   /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
   void holdPose(FrameResult* result, const std::string& why);
-  /// Velocity of the camera centre between the two newest keyframes (world units per second).
-  bool keyframeVelocity(Eigen::Vector3d* v_world_per_s) const;
-  /// The last good pose moved on at the keyframe velocity to the current time (attitude held).
+  /// The motion prior (motion_prior.h): the last good pose moved on to the current time.
   Pose predictPose() const;
 
   VoConfig config_;
@@ -118,16 +132,16 @@ class Pipeline {
   Initializer initializer_;
   PnpTracker pnp_tracker_;
   KeyframePolicy keyframe_policy_;
+  Mapper mapper_;
   Map map_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
 
   // Chain state.
   int64_t frame_index_ = -1;
   double timestamp_s_ = 0.0;
-  TrackingState state_ = TrackingState::kInitialising;
-  Pose T_world_cam_ = Pose::Identity();  // last output pose
-  bool map_initialised_ = false;
-  bool recovering_ = false;  // a map (or chain) existed and was lost: the next success is kRecovered
+  PipelineStage stage_ = PipelineStage::kInitialising;
+  TrackingState state_ = TrackingState::kInitialising;  // output state of the last processed frame
+  Pose T_world_cam_ = Pose::Identity();                 // last output pose
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
   int frames_since_keyframe_ = 0;
@@ -141,11 +155,7 @@ class Pipeline {
   std::vector<size_t> order_;
   std::vector<uint64_t> match_ids_;
   std::vector<cv::Point2d> px_ref_, px_cur_;
-  std::vector<Eigen::Vector3d> assoc_p_world_;
-  std::vector<Eigen::Vector2d> assoc_px_;
-  std::vector<uint64_t> assoc_track_ids_;
-  std::vector<uint64_t> assoc_point_ids_;
-  std::vector<uint8_t> assoc_inlier_;
+  MapAssociations assoc_;  // the current frame's tracks that carry map points, and PnP's verdict
   std::vector<Eigen::Vector3d> bearings_kf_, bearings_cur_;
   std::vector<double> scratch_;
   std::vector<uint64_t> remove_ids_;

@@ -251,6 +251,8 @@ TEST(Pipeline, RecoversFromABlackoutWithoutJumping) {
                         (all[k].T_world_cam.translation() - all[k - 1].T_world_cam.translation()).norm();
     EXPECT_LT(step, 2.0 * true_step_m) << "at t = " << all[k].timestamp_s;
   }
+  EXPECT_NE(run.results[recovered_index].message.find("scale bridged by keyframe speed"), std::string::npos)
+      << run.results[recovered_index].message;
   std::cout << "blackout: recovered at frame " << recovered_index << " (scale confidence "
             << run.results[recovered_index].scale_confidence << ", " << run.results[recovered_index].message
             << "), Sim(3) ATE " << eval.ate_rmse_percent << " %\n";
@@ -290,6 +292,7 @@ TEST(Pipeline, StateAndModelNames) {
   EXPECT_STREQ(toString(TrackingState::kRecovered), "recovered");
   EXPECT_STREQ(toString(MotionEstimate::kHomography), "homography");
   EXPECT_STREQ(toString(MotionEstimate::kPnp), "pnp");
+  EXPECT_STREQ(toString(PipelineStage::kRecovering), "recovering");
 }
 
 }  // namespace

@@ -1,0 +1,106 @@
+#include "planetary_vo/vo/mapper.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "planetary_vo/geometry/triangulation.h"
+
+namespace planetary_vo {
+namespace {
+
+/// Index of `id` in the ascending `ids`, or -1.
+int findSorted(const std::vector<uint64_t>& ids, uint64_t id) {
+  auto it = std::lower_bound(ids.begin(), ids.end(), id);
+  return (it != ids.end() && *it == id) ? static_cast<int>(it - ids.begin()) : -1;
+}
+
+}  // namespace
+
+void MapAssociations::clear() {
+  p_world.clear();
+  px.clear();
+  track_ids.clear();
+  point_ids.clear();
+  inlier.clear();
+}
+
+Mapper::Mapper(const MapConfig& config) : config_(config) {}
+
+KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world_cam,
+                                         const std::vector<uint64_t>& track_ids,
+                                         const std::vector<Eigen::Vector2d>& px,
+                                         const MapAssociations& associations, const PinholeCamera& camera,
+                                         Map* map) const {
+  KeyframeInsertion out;
+  out.keyframe_id = map->addKeyframe(timestamp_s, T_world_cam, track_ids, px);
+  for (size_t i = 0; i < associations.size(); ++i) {
+    if (!associations.inlier[i]) continue;
+    const int k = findSorted(track_ids, associations.track_ids[i]);
+    if (k >= 0) map->addObservation(associations.point_ids[i], out.keyframe_id, px[static_cast<size_t>(k)]);
+  }
+  out.points_created = triangulateNewPoints(out.keyframe_id, track_ids, px, camera, map);
+  map->retainTracks(track_ids);
+  map->dropKeyframesOutsideWindow(config_.window_keyframes);
+  out.points_culled = map->cull(config_);
+  return out;
+}
+
+int Mapper::triangulateNewPoints(uint64_t new_keyframe_id, const std::vector<uint64_t>& track_ids,
+                                 const std::vector<Eigen::Vector2d>& px, const PinholeCamera& camera,
+                                 Map* map) const {
+  const auto& kfs = map->keyframes();
+  const Keyframe& cur = kfs.back();
+  // Each track without a point is triangulated against the OLDEST kept keyframe that saw it: the widest
+  // baseline. Tracks are grouped by that keyframe so that each group is one triangulatePoints() call.
+  std::vector<std::vector<size_t>> groups(kfs.size());
+  for (size_t i = 0; i < track_ids.size(); ++i) {
+    if (map->pointForTrack(track_ids[i]) != nullptr) continue;
+    for (size_t k = 0; k + 1 < kfs.size(); ++k) {
+      if (kfs[k].px_by_track.count(track_ids[i]) != 0) {
+        groups[k].push_back(i);
+        break;
+      }
+    }
+  }
+  TriangulationOptions options;
+  options.max_reprojection_error_px = config_.max_reprojection_error_px;
+  options.min_parallax_deg = config_.min_triangulation_parallax_deg;
+  const Eigen::Matrix3d K = camera.K();
+  const Pose T_cur_world = cur.T_world_cam.inverse();
+  int created = 0;
+  std::vector<cv::Point2d> px1, px2;
+  for (size_t k = 0; k + 1 < kfs.size(); ++k) {
+    if (groups[k].empty()) continue;
+    const Keyframe& ref = kfs[k];
+    px1.clear();
+    px2.clear();
+    for (size_t i : groups[k]) {
+      const Eigen::Vector2d& a = ref.px_by_track.at(track_ids[i]);
+      px1.emplace_back(a.x(), a.y());
+      px2.emplace_back(px[i].x(), px[i].y());
+    }
+    const TriangulationResult tri = triangulatePoints(px1, px2, K, T_cur_world * ref.T_world_cam, options);
+    for (size_t j = 0; j < groups[k].size(); ++j) {
+      if (!tri.valid[j]) continue;
+      const size_t i = groups[k][j];
+      const Eigen::Vector3d p_world = ref.T_world_cam * tri.points_c1[j];
+      std::vector<MapObservation> observations;
+      // Every kept keyframe that saw the track and agrees with the point observes it (BA constraints); the
+      // reprojection check keeps a track's drift out of the map.
+      for (size_t m = k; m < kfs.size(); ++m) {
+        auto it = kfs[m].px_by_track.find(track_ids[i]);
+        if (it == kfs[m].px_by_track.end()) continue;
+        const Eigen::Vector3d p_cam = kfs[m].T_world_cam.inverse() * p_world;
+        if (p_cam.z() <= 0.0) continue;
+        const double err = (camera.project(p_cam) - it->second).norm();
+        if (m == k || kfs[m].id == new_keyframe_id || err <= config_.max_reprojection_error_px)
+          observations.push_back({kfs[m].id, it->second});
+      }
+      map->addPoint(track_ids[i], p_world, std::move(observations));
+      ++created;
+    }
+  }
+  return created;
+}
+
+}  // namespace planetary_vo

@@ -1,0 +1,107 @@
+/// Tests of the stages the pipeline delegates its recovery to: the motion prior (motion_prior.h) and the
+/// scale bridge of a re-initialisation (scale_bridge.h), each source of evidence on its own.
+
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "planetary_vo/vo/motion_prior.h"
+#include "planetary_vo/vo/scale_bridge.h"
+
+namespace planetary_vo {
+namespace {
+
+Pose at(const Eigen::Vector3d& p) {
+  Pose T = Pose::Identity();
+  T.translation() = p;
+  return T;
+}
+
+/// A lost map: two keyframes 1 s apart, the camera moving 3 units/s along its optical axis (world +z) towards
+/// points at world z = 20, each followed by one of the tracks 1..n.
+Map lostMap(int num_points) {
+  Map map;
+  std::vector<uint64_t> tracks;
+  for (int i = 1; i <= num_points; ++i) tracks.push_back(static_cast<uint64_t>(i));
+  const std::vector<Eigen::Vector2d> px(tracks.size(), Eigen::Vector2d(100, 100));
+  const uint64_t kf0 = map.addKeyframe(0.0, at({0, 0, 0}), tracks, px);
+  const uint64_t kf1 = map.addKeyframe(1.0, at({0, 0, 3}), tracks, px);
+  for (int i = 1; i <= num_points; ++i)
+    map.addPoint(static_cast<uint64_t>(i), Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0),
+                 {{kf0, {1, 1}}, {kf1, {2, 2}}});
+  return map;
+}
+
+TEST(MotionPrior, ConstantVelocityFromTheTwoNewestKeyframes) {
+  const Map map = lostMap(3);
+  Eigen::Vector3d v;
+  ASSERT_TRUE(keyframeVelocity(map, &v));
+  EXPECT_NEAR((v - Eigen::Vector3d(0, 0, 3)).norm(), 0.0, 1e-12);
+  Pose last = at({1, 2, 3});
+  last.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Pose predicted = predictConstantVelocity(last, 1.0, map, 1.5);
+  EXPECT_NEAR((predicted.translation() - Eigen::Vector3d(1, 2, 4.5)).norm(), 0.0, 1e-12);
+  EXPECT_TRUE(predicted.linear().isApprox(last.linear()));  // attitude held
+
+  Map one;  // a single keyframe gives no velocity: the pose is held
+  one.addKeyframe(0.0, at({0, 0, 0}), {}, {});
+  EXPECT_FALSE(keyframeVelocity(one, &v));
+  EXPECT_TRUE(predictConstantVelocity(last, 1.0, one, 5.0).isApprox(last));
+}
+
+TEST(ScaleBridge, SharedPointsFixTheScaleFirst) {
+  const Map map = lostMap(8);
+  const Pose T_world_ref = at({0, 0, 3});
+  Initialization init;
+  // The new map sees the old points at a quarter of their depth: its baseline is 4 old units long.
+  for (int i = 1; i <= 8; ++i) {
+    init.track_ids.push_back(static_cast<uint64_t>(i));
+    init.points_c1.push_back(T_world_ref.inverse() * Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0) / 4.0);
+  }
+  init.median_depth = 17.0 / 4.0;
+  const ScaleBridge bridge = bridgeScale(map, T_world_ref, 1.0, 1.4, init);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kSharedPoints);
+  EXPECT_NEAR(bridge.scale, 4.0, 1e-9);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.8);
+}
+
+TEST(ScaleBridge, KeyframeSpeedWhenTooFewPointsAreShared) {
+  const Map map = lostMap(8);
+  Initialization init;
+  for (int i = 1; i <= 4; ++i) {  // 4 shared points are not enough
+    init.track_ids.push_back(static_cast<uint64_t>(i));
+    init.points_c1.push_back(Eigen::Vector3d(0, 0, 5));
+  }
+  init.median_depth = 5.0;
+  // 3 units/s over a 0.5 s baseline.
+  const ScaleBridge bridge = bridgeScale(map, at({0, 0, 3}), 1.0, 1.5, init);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kKeyframeSpeed);
+  EXPECT_NEAR(bridge.scale, 1.5, 1e-12);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.5);
+}
+
+TEST(ScaleBridge, SceneDepthWithoutAVelocityAndNothingWithoutAMap) {
+  Map map;
+  const uint64_t kf = map.addKeyframe(0.0, at({0, 0, 0}), {1, 2, 3}, std::vector<Eigen::Vector2d>(3));
+  for (uint64_t t = 1; t <= 3; ++t) map.addPoint(t, Eigen::Vector3d(0, 0, 10.0 * t), {{kf, {1, 1}}});
+  Initialization init;
+  init.median_depth = 4.0;  // the old median depth 20 over the new 4
+  ScaleBridge bridge = bridgeScale(map, at({0, 0, 0}), 0.0, 0.5, init);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kSceneDepth);
+  EXPECT_NEAR(bridge.scale, 5.0, 1e-12);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.3);
+
+  bridge = bridgeScale(Map(), at({0, 0, 0}), 0.0, 0.5, init);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kNone);
+  EXPECT_DOUBLE_EQ(bridge.scale, 1.0);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
+  EXPECT_STREQ(toString(ScaleBridgeSource::kKeyframeSpeed), "keyframe speed");
+}
+
+}  // namespace
+}  // namespace planetary_vo
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
