@@ -12,8 +12,8 @@
 
 namespace planetary_vo::ros_io {
 
-const char* const kVoConfigSections[8] = {"detector", "tracker",           "map",     "keyframe", "motion",
-                                          "pnp",      "bundle_adjustment", "pipeline"};
+const char* const kVoConfigSections[9] = {"detector", "tracker",           "map",      "keyframe", "motion",
+                                          "pnp",      "bundle_adjustment", "pipeline", "altimeter"};
 
 namespace {
 

@@ -60,6 +60,60 @@ struct ReprojectionResidual {
   double fx_, fy_, cx_, cy_;
 };
 
+/// The altimeter range residual of a keyframe against the terrain plane under its beam, tied to the map: the
+/// plane keeps the normal of its fit but passes through the mean of its support points (plus the constant
+/// offset of the fit's centroid from that mean), so it moves with the points it was fitted to. A plane held
+/// fixed in the world would not: in a window whose scale is free (only the oldest keyframe fixed), pulling
+/// the cameras to the measured range from a fixed plane changes the scale the wrong way (it diverged in the
+/// unit test). Blocks: q_cam_world (4), t_cam_world (3), then one 3-vector per support point.
+struct RangeOnCameraAndPoints {
+  RangeOnCameraAndPoints(const BaRangeObservation& o, const std::vector<Eigen::Vector3d>& support_points)
+      : normal(o.plane.normal_world),
+        origin_cam(o.mounting.origin_body_m),
+        boresight_cam(o.mounting.boresight_body.normalized()),
+        measured_m(o.measured_range_m),
+        sigma_m(o.sigma_m),
+        num_points(static_cast<int>(support_points.size())) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& p : support_points) mean += p;
+    mean /= static_cast<double>(num_points);
+    offset = normal.dot(o.plane.centroid_world - mean);
+  }
+
+  template <typename T>
+  bool operator()(T const* const* blocks, T* residual) const {
+    const Eigen::Quaternion<T> q_world_cam = Eigen::Map<const Eigen::Quaternion<T>>(blocks[0]).conjugate();
+    const Eigen::Matrix<T, 3, 1> centre =
+        -(q_world_cam * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(blocks[1]));
+    Eigen::Matrix<T, 3, 1> mean = Eigen::Matrix<T, 3, 1>::Zero();
+    for (int i = 0; i < num_points; ++i) mean += Eigen::Map<const Eigen::Matrix<T, 3, 1>>(blocks[2 + i]);
+    mean /= T(num_points);
+    const Eigen::Matrix<T, 3, 1> n = normal.cast<T>();
+    const Eigen::Matrix<T, 3, 1> direction = q_world_cam * boresight_cam.cast<T>();
+    const Eigen::Matrix<T, 3, 1> origin = centre + q_world_cam * origin_cam.cast<T>();
+    const T cos_incidence = -n.dot(direction);
+    if (!(cos_incidence > T(AltimeterRangeFactor::kMinCosIncidence))) return false;
+    const T range = (n.dot(origin - mean) - T(offset)) / cos_incidence;
+    residual[0] = (range - T(measured_m)) / T(sigma_m);
+    return true;
+  }
+
+  static ceres::CostFunction* create(const BaRangeObservation& o,
+                                     const std::vector<Eigen::Vector3d>& support_points) {
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<RangeOnCameraAndPoints, 4>(
+        new RangeOnCameraAndPoints(o, support_points));
+    cost->AddParameterBlock(4);
+    cost->AddParameterBlock(3);
+    for (size_t i = 0; i < support_points.size(); ++i) cost->AddParameterBlock(3);
+    cost->SetNumResiduals(1);
+    return cost;
+  }
+
+  Eigen::Vector3d normal, origin_cam, boresight_cam;
+  double measured_m, sigma_m, offset = 0.0;
+  int num_points;
+};
+
 /// Stops the solve at the next iteration once the flag is raised (AsyncBundleAdjuster's destructor).
 class AbortCallback : public ceres::IterationCallback {
  public:
@@ -217,6 +271,8 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
 
   // Declared before the problem so that they outlive it (the problem only borrows them).
   const std::unique_ptr<ceres::LossFunction> loss = makeLoss(config);
+  const std::unique_ptr<ceres::LossFunction> range_loss(problem->ranges.empty() ? nullptr
+                                                                                : makeAltimeterLoss());
   const auto manifold = std::make_unique<ceres::EigenQuaternionManifold>();
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -237,6 +293,41 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
     ++residuals;
   }
   if (num_residuals != nullptr) *num_residuals = residuals;
+
+  // Altimeter ranges of free keyframes (a fixed keyframe's range constrains nothing).
+  std::vector<char> range_support(points.size(), 0);
+  for (const BaRangeObservation& o : problem->ranges) {
+    const auto kf = keyframe_index.find(o.keyframe_id);
+    if (kf == keyframe_index.end())
+      throw std::invalid_argument("bundle adjustment: range observation names missing keyframe " +
+                                  std::to_string(o.keyframe_id));
+    if (!(o.measured_range_m > 0.0 && std::isfinite(o.measured_range_m) && o.sigma_m > 0.0 &&
+          std::isfinite(o.sigma_m)))
+      throw std::invalid_argument("bundle adjustment: range observation of keyframe " +
+                                  std::to_string(o.keyframe_id) + " needs a positive range and sigma");
+    std::vector<size_t> support;
+    for (uint64_t id : o.support_point_ids) {
+      const auto pt = point_index.find(id);
+      if (pt != point_index.end()) support.push_back(pt->second);
+    }
+    if (support.size() < 3)
+      throw std::invalid_argument("bundle adjustment: range observation of keyframe " +
+                                  std::to_string(o.keyframe_id) + " has fewer than 3 support points");
+    const size_t k = kf->second;
+    if (problem->keyframes[k].fixed) continue;
+    std::vector<Eigen::Vector3d> support_points;
+    std::vector<double*> blocks{poses[k].q.data(), poses[k].t.data()};
+    for (size_t j : support) {
+      support_points.push_back(problem->points[j].p_world);
+      blocks.push_back(points[j].data());
+      point_used[j] = 1;
+      range_support[j] = 1;
+    }
+    ceres_problem.AddResidualBlock(RangeOnCameraAndPoints::create(o, support_points), range_loss.get(),
+                                   blocks);
+    pose_used[k] = 1;
+    ++summary.range_factors;
+  }
 
   int free_poses = 0, free_points = 0;
   for (size_t k = 0; k < poses.size(); ++k) {
@@ -280,7 +371,9 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
           free_poses <= kMaxDensePoses || !have_sparse ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
       auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
       for (size_t j = 0; j < points.size(); ++j) {
-        if (point_used[j]) ordering->AddElementToGroup(points[j].data(), 0);
+        // A Schur solver eliminates blocks that each residual touches at most once: the support points of an
+        // altimeter range (several points in one residual) stay in the reduced system with the poses.
+        if (point_used[j]) ordering->AddElementToGroup(points[j].data(), range_support[j] ? 1 : 0);
       }
       for (size_t k = 0; k < poses.size(); ++k) {
         if (!pose_used[k]) continue;

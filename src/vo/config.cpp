@@ -93,6 +93,14 @@ std::vector<std::string> VoConfig::validationErrors() const {
         "bundle_adjustment.window_keyframes: " + std::to_string(bundle_adjustment.window_keyframes) +
         " exceeds map.window_keyframes (" + std::to_string(map.window_keyframes) +
         "); BA can only adjust keyframes of the local map");
+  if (altimeter.noise.min_range_m >= altimeter.noise.max_range_m)
+    errors.push_back("altimeter.min_range_m: " + std::to_string(altimeter.noise.min_range_m) +
+                     " must be below altimeter.max_range_m (" + std::to_string(altimeter.noise.max_range_m) +
+                     ")");
+  if (std::abs(altimeter.mounting.boresight_body.norm() - 1.0) > 1e-3)
+    errors.push_back("altimeter.boresight_x/y/z: (" + std::to_string(altimeter.mounting.boresight_body.x()) +
+                     ", " + std::to_string(altimeter.mounting.boresight_body.y()) + ", " +
+                     std::to_string(altimeter.mounting.boresight_body.z()) + ") must be a unit vector");
   return errors;
 }
 
@@ -113,6 +121,7 @@ PLANETARY_VO_CONFIG_EQ(MapConfig, mapFields)
 PLANETARY_VO_CONFIG_EQ(PnpConfig, pnpFields)
 PLANETARY_VO_CONFIG_EQ(BundleAdjustmentConfig, bundleAdjustmentFields)
 PLANETARY_VO_CONFIG_EQ(PipelineConfig, pipelineFields)
+PLANETARY_VO_CONFIG_EQ(AltimeterAidingConfig, altimeterFields)
 PLANETARY_VO_CONFIG_EQ(VoConfig, forEachField)
 #undef PLANETARY_VO_CONFIG_EQ
 

@@ -167,6 +167,22 @@ void pipelineFields(C& c, V& v) {
   v("max_consecutive_failed_frames", c.max_consecutive_failed_frames, 1, 100000);
 }
 
+template <class C, class V>
+void altimeterFields(C& c, V& v) {
+  v("enabled", c.enabled);
+  v("range_noise_floor_m", c.noise.range_noise_floor_m, 0.0, 1000.0);
+  v("range_noise_fraction", c.noise.range_noise_fraction, 0.0, 1.0);
+  v("min_range_m", c.noise.min_range_m, 0.0, 1e7);
+  v("max_range_m", c.noise.max_range_m, 0.0, 1e7);
+  v("origin_x_m", c.mounting.origin_body_m.x(), -100.0, 100.0);
+  v("origin_y_m", c.mounting.origin_body_m.y(), -100.0, 100.0);
+  v("origin_z_m", c.mounting.origin_body_m.z(), -100.0, 100.0);
+  v("boresight_x", c.mounting.boresight_body.x(), -1.0, 1.0);
+  v("boresight_y", c.mounting.boresight_body.y(), -1.0, 1.0);
+  v("boresight_z", c.mounting.boresight_body.z(), -1.0, 1.0);
+  v("max_time_offset_s", c.max_time_offset_s, 0.0, 10.0);
+}
+
 /// Walks every section of VoConfig in file order.
 template <class Cfg, class V>
 void forEachField(Cfg& cfg, V& v) {
@@ -186,6 +202,8 @@ void forEachField(Cfg& cfg, V& v) {
   bundleAdjustmentFields(cfg.bundle_adjustment, v);
   v.beginSection("pipeline");
   pipelineFields(cfg.pipeline, v);
+  v.beginSection("altimeter");
+  altimeterFields(cfg.altimeter, v);
 }
 
 }  // namespace planetary_vo::config_detail

@@ -212,4 +212,10 @@ void Map::pointViews(std::vector<MapPointView>* out) const {
         {entry.second.id, entry.second.p_world, static_cast<int>(entry.second.observations.size())});
 }
 
+void Map::scaleAbout(const Eigen::Vector3d& centre, double s) {
+  for (Keyframe& kf : keyframes_)
+    kf.T_world_cam.translation() = centre + s * (kf.T_world_cam.translation() - centre);
+  for (auto& entry : points_) entry.second.p_world = centre + s * (entry.second.p_world - centre);
+}
+
 }  // namespace planetary_vo

@@ -32,8 +32,14 @@ Pose scaledInverse(const Pose& T_c2_c1_unit, double scale) {
   return T_c2_c1.inverse();
 }
 
-// The two oldest keyframes of the BA window stay fixed: the first fixes the gauge, the second the scale.
+// Gauge policy of the windowed BA. Vision only: the two oldest keyframes of the window stay fixed, the first
+// fixes the gauge, the second the scale. Vision + altimeter with a metric map and range factors on at least
+// two free keyframes: the ranges fix the scale, so only the oldest keyframe stays fixed.
 constexpr int kNumFixedBaKeyframes = 2;
+constexpr int kNumFixedBaKeyframesWithRanges = 1;
+constexpr size_t kMinRangeFactorsForScale = 2;
+// Map points that carry the terrain plane of an altimeter range factor in the solve.
+constexpr size_t kRangeSupportPoints = 12;
 
 }  // namespace
 
@@ -56,7 +62,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       initializer_(config.motion, config.map, planeNormalPriorVector(config.motion.plane_normal_prior)),
       pnp_tracker_(config.pnp, config.bundle_adjustment),
       keyframe_policy_(config.keyframe),
-      mapper_(config.map) {
+      mapper_(config.map),
+      altimeter_(config.altimeter) {
   config_.validate();
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
@@ -77,7 +84,9 @@ void Pipeline::reset() {
   frame_index_ = -1;
   stage_ = PipelineStage::kInitialising;
   state_ = TrackingState::kInitialising;
-  T_world_cam_ = Pose::Identity();
+  T_world_cam_ = T_world_cam_initial_;
+  metric_scale_ = false;
+  altimeter_.clear();
   failed_frames_ = 0;
   scale_confidence_ = 0.0;
   frames_since_keyframe_ = 0;
@@ -98,6 +107,20 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
   reference_.valid = false;
   last_good_.valid = false;
   failed_frames_ = 0;
+}
+
+void Pipeline::addAltimeter(const AltimeterSample& sample) {
+  if (config_.altimeter.enabled) altimeter_.add(sample);
+}
+
+void Pipeline::setInitialPose(const Pose& T_world_cam) {
+  if (frame_index_ >= 0)
+    throw std::logic_error("Pipeline::setInitialPose: call it before the first image (or after reset())");
+  const Eigen::Matrix3d& R = T_world_cam.linear();
+  if (!T_world_cam.matrix().allFinite() || !(R.transpose() * R).isIdentity(1e-6) || !(R.determinant() > 0.0))
+    throw std::invalid_argument("Pipeline::setInitialPose: not a finite rigid pose");
+  T_world_cam_initial_ = T_world_cam;
+  T_world_cam_ = T_world_cam;
 }
 
 void Pipeline::setPriorPlaneNormal(const Eigen::Vector3d& normal_cam) {
@@ -139,6 +162,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   T_world_cam_ = result.T_world_cam;
   state_ = result.state;
   result.scale_confidence = scale_confidence_;
+  result.metric_scale = metric_scale_;
   result.num_map_points = static_cast<int>(map_.numPoints());
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
   result.times.total_ms = msSince(start);
@@ -320,11 +344,28 @@ void Pipeline::tryInitialise(FrameResult* result) {
     return;
   }
   const Clock::time_point mapping_start = Clock::now();
-  ScaleBridge bridge;
-  if (recovering)
-    bridge = bridgeScale(map_, reference_.T_world_cam, reference_.timestamp_s, timestamp_s_, init);
-  const double scale = recovering ? bridge.scale : 1.0;
-  scale_confidence_ = recovering ? scale_confidence_ * bridge.confidence_factor : 1.0;
+  // The scale of the new map: metres from the altimeter when it gives them (and the trajectory so far is
+  // metric too), else the bridge from the old map (a recovery), else the unit baseline (the first map).
+  const AltimeterScaleFix fix = config_.altimeter.enabled ? initialMapScale(init) : AltimeterScaleFix();
+  double scale = 1.0;
+  std::string scale_note;
+  if (fix.valid && (!recovering || metric_scale_)) {
+    scale = fix.metres_per_map_unit;
+    scale_confidence_ = 1.0;
+    metric_scale_ = true;
+    scale_note = ", metric scale from the altimeter: " + std::to_string(fix.measured_range_m) + " m over " +
+                 std::to_string(fix.prediction.range) + " baselines (1-sigma " +
+                 std::to_string(100.0 * fix.relative_sigma) + " %)";
+  } else if (recovering) {
+    const ScaleBridge bridge =
+        bridgeScale(map_, reference_.T_world_cam, reference_.timestamp_s, timestamp_s_, init);
+    scale = bridge.scale;
+    scale_confidence_ *= bridge.confidence_factor;
+    scale_note = std::string(", scale bridged by ") + toString(bridge.source);
+  } else {
+    scale_confidence_ = 1.0;
+    if (config_.altimeter.enabled) scale_note = ", no metric scale yet (" + fix.reason + ")";
+  }
 
   const Pose T_world_ref = reference_.T_world_cam;
   const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
@@ -352,7 +393,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
       std::to_string(init.points_c1.size()) + " points" +
       (init.rival_points > 0 ? ", rival motion " + std::to_string(init.rival_points) : std::string()) +
       (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") +
-      (recovering ? std::string(", scale bridged by ") + toString(bridge.source) : std::string()) + ")";
+      scale_note + ")";
   stage_ = PipelineStage::kTracking;
   failed_frames_ = 0;
   frames_since_keyframe_ = 0;
@@ -445,15 +486,104 @@ void Pipeline::insertKeyframe(FrameResult* result) {
   frames_since_keyframe_ = 0;
   result->message += ": +" + std::to_string(insertion.points_created) + " points, -" +
                      std::to_string(insertion.points_culled) + " culled";
+  if (config_.altimeter.enabled) {
+    if (const std::optional<AltimeterSample> reading = altimeter_.readingAt(timestamp_s_))
+      map_.keyframe(insertion.keyframe_id)->altimeter_range_m = reading->slant_range_m;
+    if (!metric_scale_) tryMetricScaleAtKeyframe(result);
+  }
   result->times.mapping_ms = msSince(start);
   runBundleAdjustment(result);
+}
+
+AltimeterScaleFix Pipeline::initialMapScale(const Initialization& init) const {
+  // In the reference camera's frame at unit baseline: the current camera sits at T_c1_c2.
+  return altimeter_.scaleAt(timestamp_s_, init.points_c1, init.motion.T_c2_c1_unit.inverse());
+}
+
+void Pipeline::tryMetricScaleAtKeyframe(FrameResult* result) {
+  std::vector<Eigen::Vector3d> points_world;
+  points_world.reserve(map_.numPoints());
+  for (const auto& entry : map_.points()) points_world.push_back(entry.second.p_world);
+  const AltimeterScaleFix fix = altimeter_.scaleAt(timestamp_s_, points_world, result->T_world_cam);
+  if (!fix.valid) return;
+  // Scale about where the trajectory started, so that the initial pose handed over stays where it was.
+  const Eigen::Vector3d centre = T_world_cam_initial_.translation();
+  const double s = fix.metres_per_map_unit;
+  map_.scaleAbout(centre, s);
+  auto scaled = [&](Pose T) {
+    T.translation() = centre + s * (T.translation() - centre);
+    return T;
+  };
+  result->T_world_cam = scaled(result->T_world_cam);
+  last_good_.T_world_cam = scaled(last_good_.T_world_cam);
+  if (reference_.valid) reference_.T_world_cam = scaled(reference_.T_world_cam);
+  metric_scale_ = true;
+  result->message += "; metric scale from the altimeter: x" + std::to_string(s) + " (1-sigma " +
+                     std::to_string(100.0 * fix.relative_sigma) + " %)";
+}
+
+std::vector<BaRangeObservation> Pipeline::altimeterRanges() const {
+  std::vector<BaRangeObservation> ranges;
+  const auto& kfs = map_.keyframes();
+  if (!config_.altimeter.enabled || !metric_scale_ || kfs.size() < 2) return ranges;
+  const size_t window = std::min(kfs.size(), static_cast<size_t>(config_.bundle_adjustment.window_keyframes));
+  std::vector<Eigen::Vector3d> points_world;
+  std::vector<uint64_t> point_ids;
+  points_world.reserve(map_.numPoints());
+  for (const auto& entry : map_.points()) {
+    points_world.push_back(entry.second.p_world);
+    point_ids.push_back(entry.first);
+  }
+  std::vector<std::pair<double, size_t>> by_distance;
+  for (size_t i = kfs.size() - window + 1; i < kfs.size(); ++i) {
+    const Keyframe& kf = kfs[i];
+    if (!std::isfinite(kf.altimeter_range_m)) continue;
+    const RangePrediction prediction =
+        predictRange(points_world, {}, kf.T_world_cam, altimeter_.config().mounting);
+    if (!prediction.valid()) continue;
+    BaRangeObservation r;
+    r.keyframe_id = kf.id;
+    r.plane = prediction.plane;
+    // The plane's support in the solve: the map points nearest the beam's hit that lie on the plane (within
+    // 3 roughness, at least 1 % of the range).
+    const double on_plane = std::max(3.0 * prediction.plane.roughness, 0.01 * prediction.range);
+    by_distance.clear();
+    for (size_t j = 0; j < points_world.size(); ++j) {
+      if (std::abs(prediction.plane.normal_world.dot(points_world[j] - prediction.plane.centroid_world)) >
+          on_plane)
+        continue;
+      by_distance.emplace_back((points_world[j] - prediction.hit_world).squaredNorm(), j);
+    }
+    const size_t num_support = std::min(by_distance.size(), kRangeSupportPoints);
+    if (num_support < 3) continue;
+    std::partial_sort(by_distance.begin(), by_distance.begin() + static_cast<std::ptrdiff_t>(num_support),
+                      by_distance.end());
+    for (size_t m = 0; m < num_support; ++m) r.support_point_ids.push_back(point_ids[by_distance[m].second]);
+    r.mounting = altimeter_.config().mounting;
+    r.measured_range_m = kf.altimeter_range_m;
+    r.sigma_m = altimeterResidualSigmaM(altimeter_.config().noise, kf.altimeter_range_m, prediction);
+    ranges.push_back(r);
+  }
+  return ranges;
 }
 
 void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (!config_.bundle_adjustment.enabled) return;
   const Clock::time_point start = Clock::now();
-  BaProblem problem = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, kNumFixedBaKeyframes,
-                                         camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy());
+  std::vector<BaRangeObservation> ranges = altimeterRanges();
+  BaProblem problem;
+  for (const int num_fixed : {kNumFixedBaKeyframesWithRanges, kNumFixedBaKeyframes}) {
+    if (num_fixed == kNumFixedBaKeyframesWithRanges && ranges.size() < kMinRangeFactorsForScale) continue;
+    problem = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),
+                                 camera_.fy(), camera_.cx(), camera_.cy());
+    problem.ranges.clear();
+    for (const BaRangeObservation& r : ranges) {
+      const auto kf = std::find_if(problem.keyframes.begin(), problem.keyframes.end(),
+                                   [&r](const BaKeyframe& k) { return k.id == r.keyframe_id; });
+      if (kf != problem.keyframes.end() && !kf->fixed) problem.ranges.push_back(r);
+    }
+    if (num_fixed == kNumFixedBaKeyframes || problem.ranges.size() >= kMinRangeFactorsForScale) break;
+  }
   const bool has_free_pose = std::any_of(problem.keyframes.begin(), problem.keyframes.end(),
                                          [](const BaKeyframe& k) { return !k.fixed; });
   if (!has_free_pose || problem.points.empty()) return;

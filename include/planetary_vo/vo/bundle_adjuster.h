@@ -1,11 +1,19 @@
 #pragma once
 /// @file bundle_adjuster.h
-/// Stage 6: windowed bundle adjustment with Ceres (thesis 3.5.2) over a plain problem description, so that the
-/// optimiser knows nothing of the map's bookkeeping: the pipeline copies the local window out, the adjuster
-/// optimises the copy (in its own thread if asked), and the pipeline writes back what is still alive.
+/// Stage 6: windowed bundle adjustment with Ceres (thesis 3.5.2) over a plain problem description, so that
+/// the optimiser knows nothing of the map's bookkeeping: the pipeline copies the local window out, the
+/// adjuster optimises the copy (in its own thread if asked), and the pipeline writes back what is still
+/// alive.
 ///
 /// Poses are T_cam_world (world -> camera, the form the reprojection residual needs); observations are IDEAL
 /// (undistorted) pixels of a pinhole camera with intrinsics K.
+///
+/// Factors: one reprojection residual per observation (robust loss of the config), and, for a metric map of
+/// the vision + altimeter mode, one altimeter range residual per BaRangeObservation (the keyframe's measured
+/// slant range against the range from its pose to the terrain plane fitted to the map, which moves with its
+/// support points; fusion/altimeter_range.h, Cauchy loss at 2.5 sigma). The range factors make the scale
+/// observable, so the caller may then fix only the oldest keyframe (the gauge policy is the caller's: see
+/// Pipeline::runBundleAdjustment).
 ///
 /// Contract of adjustBundle() / refinePose() (bundle_adjuster.cpp):
 /// - Bad input is a caller bug and throws std::invalid_argument: an observation naming a keyframe or point
@@ -34,6 +42,7 @@
 
 #include <Eigen/Core>
 
+#include "planetary_vo/fusion/altimeter_range.h"
 #include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/vo/config.h"
 
@@ -42,7 +51,8 @@ namespace planetary_vo {
 struct BaKeyframe {
   uint64_t id = 0;
   Pose T_cam_world = Pose::Identity();
-  bool fixed = false;  ///< held constant (gauge: at least the oldest keyframe of the window, plus those outside)
+  bool fixed =
+      false;  ///< held constant (gauge: at least the oldest keyframe of the window, plus those outside)
 };
 
 struct BaPoint {
@@ -57,22 +67,37 @@ struct BaObservation {
   Eigen::Vector2d px = Eigen::Vector2d::Zero();  ///< ideal pixel
 };
 
+/// An altimeter reading of a keyframe in a metric map, against the terrain plane fitted to the map under its
+/// beam (predictRange()). In the solve the plane keeps its normal and moves with the mean of its support
+/// points (ids of points of the problem, at least 3), so that the range constrains the scale of the map, not
+/// the distance to a plane frozen in the world.
+struct BaRangeObservation {
+  uint64_t keyframe_id = 0;
+  LocalSurfacePlane plane;
+  std::vector<uint64_t> support_point_ids;
+  AltimeterMounting mounting;     ///< in the camera frame
+  double measured_range_m = 0.0;  ///< > 0
+  double sigma_m = 0.0;           ///< > 0: instrument noise and plane uncertainty (altimeterResidualSigmaM)
+};
+
 struct BaProblem {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
   std::vector<BaKeyframe> keyframes;
   std::vector<BaPoint> points;
   std::vector<BaObservation> observations;
+  std::vector<BaRangeObservation> ranges;  ///< empty in vision-only mode
 };
 
 struct BaSummary {
-  bool converged = false;        ///< Ceres reported a usable solution
+  bool converged = false;  ///< Ceres reported a usable solution
   int iterations = 0;
-  double initial_rms_px = 0.0;   ///< RMS reprojection error over all observations before
-  double final_rms_px = 0.0;     ///< and after the adjustment
-  double solve_ms = 0.0;  ///< wall time of the whole call (set-up, solve, evaluation)
-  /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops them.
-  /// The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera are
-  /// listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.
+  double initial_rms_px = 0.0;  ///< RMS reprojection error over all observations before
+  double final_rms_px = 0.0;    ///< and after the adjustment
+  double solve_ms = 0.0;        ///< wall time of the whole call (set-up, solve, evaluation)
+  int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
+  /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops
+  /// them. The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera
+  /// are listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.
   std::vector<BaObservation> outliers;
 };
 
@@ -81,9 +106,9 @@ struct BaSummary {
 /// problem, or one with nothing free, is "converged" after 0 iterations.
 BaSummary adjustBundle(BaProblem* problem, const BundleAdjustmentConfig& config);
 
-/// Motion-only refinement: the camera pose that minimises the robust reprojection error of fixed world points.
-/// Returns the summary; `T_cam_world` is updated in place. With no point in front of the camera the pose
-/// is undetermined: converged is false and the pose is unchanged.
+/// Motion-only refinement: the camera pose that minimises the robust reprojection error of fixed world
+/// points. Returns the summary; `T_cam_world` is updated in place. With no point in front of the camera the
+/// pose is undetermined: converged is false and the pose is unchanged.
 BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                      const std::vector<Eigen::Vector2d>& px, double fx, double fy, double cx, double cy,
                      const BundleAdjustmentConfig& config);
@@ -92,12 +117,11 @@ BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_wo
 /// submits at a keyframe and collects with waitIdle() + takeResult() after the next image's KLT, so the
 /// solve overlaps that tracking and its result always lands at the same frame.
 /// At most one problem is in flight; submitting while busy replaces the queued (not yet started) problem.
-/// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its own
-/// copy of the problem.
-/// A solve that failed with an exception (bad input, see above) is rethrown by the next takeResult().
-/// Destroying the adjuster while a solve runs aborts that solve at its next Ceres iteration (an
-/// IterationCallback watching abort_) and discards its result and any queued problem, so the destructor
-/// waits for at most one iteration, not the whole solve.
+/// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its
+/// own copy of the problem. A solve that failed with an exception (bad input, see above) is rethrown by the
+/// next takeResult(). Destroying the adjuster while a solve runs aborts that solve at its next Ceres
+/// iteration (an IterationCallback watching abort_) and discards its result and any queued problem, so the
+/// destructor waits for at most one iteration, not the whole solve.
 class AsyncBundleAdjuster {
  public:
   explicit AsyncBundleAdjuster(const BundleAdjustmentConfig& config);

@@ -8,14 +8,16 @@
 /// TrackerConfig&)`); no stage sees YAML, rosparam or the whole VoConfig.
 ///
 /// YAML layout: one map per section, named as the VoConfig members (`detector:`, `tracker:`, `motion:`,
-/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`), each holding the keys named as the struct
-/// members. Loading lives in config_yaml.h.
+/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`), each holding the keys named
+/// as the struct members. Loading lives in config_yaml.h.
 
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "planetary_vo/fusion/altimeter_range.h"
 
 namespace planetary_vo {
 
@@ -159,6 +161,20 @@ struct PipelineConfig {
   int max_consecutive_failed_frames = 10;  ///< after this many frames without a pose, reinitialise
 };
 
+/// Laser-altimeter aiding (issue 10): the metric scale of the map from the altimeter's slant range against
+/// the range the map predicts along the beam (fusion/altimeter_range.h). Off by default: vision only. Map
+/// mode only: the unit-step chain has no map to predict a range from and ignores it.
+struct AltimeterAidingConfig {
+  bool enabled = false;  ///< use the readings given to Pipeline::addAltimeter()
+  /// The instrument as its data sheet gives it (defaults: the benchmark's flight altimeter, sensors.yaml).
+  AltimeterNoise noise;
+  /// Beam origin and unit boresight in the CAMERA optical frame (default: co-located, along +z).
+  AltimeterMounting mounting;
+  /// A reading is used for an image when it lies within this of the image time (the two readings around the
+  /// image are interpolated when both returned).
+  double max_time_offset_s = 0.06;
+};
+
 /// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).
 struct VoConfig {
   DetectorConfig detector;
@@ -169,6 +185,7 @@ struct VoConfig {
   PnpConfig pnp;
   BundleAdjustmentConfig bundle_adjustment;
   PipelineConfig pipeline;
+  AltimeterAidingConfig altimeter;
 
   /// Every out-of-range value and every inconsistent combination, one line each naming `section.key`.
   std::vector<std::string> validationErrors() const;
@@ -186,6 +203,7 @@ bool operator==(const MapConfig& a, const MapConfig& b);
 bool operator==(const PnpConfig& a, const PnpConfig& b);
 bool operator==(const BundleAdjustmentConfig& a, const BundleAdjustmentConfig& b);
 bool operator==(const PipelineConfig& a, const PipelineConfig& b);
+bool operator==(const AltimeterAidingConfig& a, const AltimeterAidingConfig& b);
 bool operator==(const VoConfig& a, const VoConfig& b);
 inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b); }
 

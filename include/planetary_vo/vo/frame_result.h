@@ -71,6 +71,9 @@ struct FrameResult {
   /// bridge had to assume constant speed than when shared points fixed it); 0 without a map (unit-step
   /// chain).
   double scale_confidence = 0.0;
+  /// Positions are in metres: the map's scale was fixed by the altimeter (vision + altimeter mode). False in
+  /// vision-only mode, whose unit is the first two-view baseline.
+  bool metric_scale = false;
 
   StageTimesMs times;
   /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.

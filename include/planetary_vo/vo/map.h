@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -29,6 +30,8 @@ struct Keyframe {
   /// Ideal (undistorted) pixel of every track alive when the keyframe was taken, by track id. New points are
   /// triangulated from these, also for tracks that did not yet carry a point.
   std::unordered_map<uint64_t, Eigen::Vector2d> px_by_track;
+  /// The altimeter's slant range at the keyframe's time (vision + altimeter mode), NaN when there was none.
+  double altimeter_range_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct MapObservation {
@@ -84,6 +87,11 @@ class Map {
   /// Removes points that PnP keeps rejecting (found / visible < cull_min_found_ratio after 5 visible frames)
   /// and detached points with fewer than min_observations keyframe observations. Returns how many.
   int cull(const MapConfig& config);
+
+  /// Scales the map about `centre` (world): every keyframe position and point p becomes centre + s (p -
+  /// centre); attitudes are unchanged. A change of the map's unit, e.g. to metres once the altimeter fixed
+  /// it.
+  void scaleAbout(const Eigen::Vector3d& centre, double s);
 
   /// Copy of the newest `window_keyframes` keyframes and the points with >= 2 observations in them. The
   /// `num_fixed_oldest` oldest window keyframes are held fixed (gauge and scale); keyframes outside the

@@ -37,7 +37,9 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "planetary_vo/fusion/measurements.h"
 #include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/vo/altimeter_aiding.h"
 #include "planetary_vo/vo/bundle_adjuster.h"
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/frame_result.h"
@@ -76,7 +78,20 @@ class Pipeline {
   /// @throws std::invalid_argument for an empty, non-8UC1 or wrongly sized image (the state is unchanged).
   FrameResult process(double timestamp_s, const cv::Mat& gray);
 
-  /// Forgets tracks, map and trajectory: the next frame starts a new trajectory at the origin.
+  /// @brief An altimeter reading (vision + altimeter mode, config.altimeter.enabled; ignored otherwise).
+  /// Give readings in stamp order, before the image they belong to. With a reading at the time of the
+  /// initialising image the first map is metric at once (metres); otherwise at the first keyframe that has
+  /// one (FrameResult::metric_scale says which).
+  /// @throws std::invalid_argument for a non-finite stamp, a NaN or negative range, or a stamp older than the
+  /// last reading (the state is unchanged).
+  void addAltimeter(const AltimeterSample& sample);
+
+  /// The pose of the camera at the first image, as guidance hands it over (e.g. in the landing-site frame):
+  /// the trajectory starts there instead of at the origin. Call before the first image (or after reset()).
+  void setInitialPose(const Pose& T_world_cam);
+
+  /// Forgets tracks, map, trajectory and buffered readings: the next frame starts a new trajectory at the
+  /// initial pose (the origin unless setInitialPose() was called).
   void reset();
 
   /// Changes the intrinsics (e.g. a new camera_info). If they differ, the tracks and the map are dropped and
@@ -124,6 +139,15 @@ class Pipeline {
   void holdPose(FrameResult* result, const std::string& why);
   /// The motion prior (motion_prior.h): the last good pose moved on to the current time.
   Pose predictPose() const;
+  /// Vision + altimeter: metres per unit of a new two-view map (points in the reference camera, unit
+  /// baseline), or an invalid fix.
+  AltimeterScaleFix initialMapScale(const Initialization& init) const;
+  /// Vision + altimeter, map not yet metric: scales map and trajectory to metres about the initial position
+  /// when the current keyframe has a valid fix.
+  void tryMetricScaleAtKeyframe(FrameResult* result);
+  /// Vision + altimeter, metric map: the altimeter ranges of the BA window's keyframes (but the oldest)
+  /// against planes fitted to the current map.
+  std::vector<BaRangeObservation> altimeterRanges() const;
 
   VoConfig config_;
   PinholeCamera camera_;
@@ -134,6 +158,7 @@ class Pipeline {
   KeyframePolicy keyframe_policy_;
   Mapper mapper_;
   Map map_;
+  AltimeterAiding altimeter_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
 
   // Chain state.
@@ -142,6 +167,8 @@ class Pipeline {
   PipelineStage stage_ = PipelineStage::kInitialising;
   TrackingState state_ = TrackingState::kInitialising;  // output state of the last processed frame
   Pose T_world_cam_ = Pose::Identity();                 // last output pose
+  Pose T_world_cam_initial_ = Pose::Identity();         // where the trajectory starts (setInitialPose)
+  bool metric_scale_ = false;                           // map and trajectory in metres (vision + altimeter)
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
   int frames_since_keyframe_ = 0;

@@ -3,6 +3,13 @@
 /// trajectory.
 ///
 ///   vo_run --dataset DIR [--config YAML] --output traj.txt [--max-frames N] [--quiet]
+///          [--initial-state-from-groundtruth]
+///
+/// With `altimeter.enabled` in the configuration the dataset's altimeter.txt is given to the pipeline, each
+/// reading before the first image at or after its stamp (as a live driver would deliver it). With
+/// --initial-state-from-groundtruth the pipeline is handed the first ground-truth pose (as guidance hands
+/// over the initial state) and nothing else from the ground truth, so the trajectory is written in the
+/// dataset's world frame.
 ///
 /// Writes a TUM line (T_world_cam) for every processed frame that has a pose (tracking, recovered, or lost =
 /// held pose); frames before the initialisation have none. Prints per-stage time (median, p99), peak memory
@@ -40,18 +47,24 @@ struct Options {
   long max_frames = -1;
   std::string frame_log_path;
   bool quiet = false;
+  bool initial_state_from_groundtruth = false;
 };
 
 void usage(std::ostream& out) {
   out << "usage: vo_run --dataset DIR --output traj.txt [--config YAML] [--max-frames N] [--frame-log FILE]\n"
-         "              [--quiet]\n"
+         "              [--quiet] [--initial-state-from-groundtruth]\n"
          "  --dataset DIR     planetary_vo, KITTI odometry, EuRoC or TUM RGB-D folder\n"
          "  --config YAML     VO configuration (default: built-in defaults = config/default.yaml)\n"
          "  --output FILE     TUM trajectory (t tx ty tz qx qy qz qw, T_world_cam) of the processed frames\n"
          "  --max-frames N    stop after N input frames\n"
          "  --frame-log FILE  one line per processed frame: state, counts, model, keyframe, time and the\n"
          "                    pipeline's message (why a frame got no pose, why it became a keyframe)\n"
-         "  --quiet           no progress and no summary\n";
+         "  --quiet           no progress and no summary\n"
+         "  --initial-state-from-groundtruth\n"
+         "                    start at the dataset's first ground-truth pose (the state guidance hands "
+         "over;\n"
+         "                    nothing else of the ground truth is used): poses in the dataset's world "
+         "frame\n";
 }
 
 bool parseArgs(int argc, char** argv, Options* options) {
@@ -82,6 +95,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       }
     } else if (arg == "--frame-log") {
       if (!value(&options->frame_log_path)) return false;
+    } else if (arg == "--initial-state-from-groundtruth") {
+      options->initial_state_from_groundtruth = true;
     } else if (arg == "--quiet") {
       options->quiet = true;
     } else if (arg == "--help" || arg == "-h") {
@@ -127,6 +142,16 @@ int main(int argc, char** argv) {
     const VoConfig config = options.config_path.empty() ? VoConfig() : loadVoConfig(options.config_path);
     const Dataset dataset = Dataset::open(options.dataset_dir);
     Pipeline pipeline(config, dataset.camera());
+    if (options.initial_state_from_groundtruth) {
+      if (!dataset.hasGroundTruth())
+        throw std::runtime_error("--initial-state-from-groundtruth: the dataset has no ground truth");
+      pipeline.setInitialPose(dataset.groundTruth().front().T_world_cam);
+    }
+    const std::vector<AltimeterSample>& altimeter = dataset.altimeter();
+    if (config.altimeter.enabled && altimeter.empty())
+      throw std::runtime_error("altimeter.enabled: the dataset has no altimeter readings (altimeter.txt)");
+    size_t next_altimeter = 0;
+    int metric_from_frame = -1;
     const size_t num_frames = options.max_frames > 0
                                   ? std::min(dataset.size(), static_cast<size_t>(options.max_frames))
                                   : dataset.size();
@@ -148,7 +173,11 @@ int main(int argc, char** argv) {
     double resident_mb_early = 0.0;
     for (size_t i = 0; i < num_frames; ++i) {
       const cv::Mat gray = dataset.loadImage(i);
+      while (config.altimeter.enabled && next_altimeter < altimeter.size() &&
+             altimeter[next_altimeter].timestamp_s <= dataset.timestamp(i))
+        pipeline.addAltimeter(altimeter[next_altimeter++]);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
+      if (r.metric_scale && metric_from_frame < 0) metric_from_frame = static_cast<int>(r.frame_index);
       if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
       if (!r.processed) continue;
       ++processed;
@@ -196,6 +225,12 @@ int main(int argc, char** argv) {
                     quantile(*stage.second, 0.99));
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
+      if (config.altimeter.enabled) {
+        if (metric_from_frame >= 0)
+          std::printf("scale: metres from frame %d on (altimeter)\n", metric_from_frame);
+        else
+          std::printf("scale: never metric (no usable altimeter fix; see the frame log)\n");
+      }
       std::printf(
           "peak memory: %.1f MB; resident %.1f MB after 10 %% of the frames, %.1f MB at the end; at most "
           "%d map points\n",

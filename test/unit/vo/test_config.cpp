@@ -123,6 +123,15 @@ TEST(VoConfig, FixtureParsesFieldByField) {
 
   EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
   EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);
+
+  EXPECT_TRUE(c.altimeter.enabled);
+  EXPECT_DOUBLE_EQ(c.altimeter.noise.range_noise_floor_m, 0.5);
+  EXPECT_DOUBLE_EQ(c.altimeter.noise.range_noise_fraction, 0.001);
+  EXPECT_DOUBLE_EQ(c.altimeter.noise.min_range_m, 5.0);
+  EXPECT_DOUBLE_EQ(c.altimeter.noise.max_range_m, 5000.0);
+  EXPECT_TRUE(c.altimeter.mounting.origin_body_m.isApprox(Eigen::Vector3d(0.1, -0.2, 0.3)));
+  EXPECT_TRUE(c.altimeter.mounting.boresight_body.isApprox(Eigen::Vector3d(0.6, 0.48, 0.64)));
+  EXPECT_DOUBLE_EQ(c.altimeter.max_time_offset_s, 0.1);
 }
 
 // A +z (nadir) prior by default picked the wrong homography decomposition at frame 1 of the KITTI
@@ -177,6 +186,12 @@ TEST(VoConfig, EachSectionTakesPartInEquality) {
   c = VoConfig();
   c.pipeline = fixture.pipeline;
   EXPECT_FALSE(c == defaults) << "pipeline";
+  c = VoConfig();
+  c.altimeter = fixture.altimeter;
+  EXPECT_FALSE(c == defaults) << "altimeter";
+  c = VoConfig();
+  c.altimeter.max_time_offset_s = 0.07;
+  EXPECT_FALSE(c == defaults) << "altimeter, last key";
   // The last key of a section, in case a walker stops early.
   c = VoConfig();
   c.detector.compute_descriptors = true;
@@ -212,6 +227,14 @@ TEST(VoConfig, DefaultYamlListsAndCommentsEveryKey) {
     previous = line;
   }
   EXPECT_EQ(key_lines, static_cast<int>(dumpedKeys(VoConfig()).size()));
+}
+
+TEST(VoConfig, AltimeterConfigDiffersFromTheDefaultOnlyByTheAltimeter) {
+  VoConfig c = loadVoConfig(sourceRoot() + "config/lunar_altimeter.yaml");
+  EXPECT_TRUE(c.altimeter.enabled);
+  c.altimeter.enabled = false;
+  EXPECT_TRUE(c == VoConfig()) << "config/lunar_altimeter.yaml changes more than altimeter.enabled:\n"
+                               << c.dump();
 }
 
 TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
@@ -285,6 +308,13 @@ TEST(VoConfig, InconsistentCombinationsAreRejected) {
   problems = problemsOf("tracker:\n  window_size_px: 20\n");
   ASSERT_EQ(problems.size(), 1u);
   EXPECT_TRUE(anyContains(problems, "tracker.window_size_px"));
+
+  problems = problemsOf("altimeter:\n  min_range_m: 3000\n");
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_TRUE(anyContains(problems, "altimeter.min_range_m"));
+  problems = problemsOf("altimeter:\n  boresight_x: 1\n");  // (1, 0, 1) is not a unit vector
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_TRUE(anyContains(problems, "altimeter.boresight"));
 
   VoConfig c;
   c.tracker.max_iterations = 0;
