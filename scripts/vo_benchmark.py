@@ -21,6 +21,9 @@ Groups of rows (--groups, default all):
   ideal512   the six at 512x512, ideal sensors: the images of ../shared/docs/peer-results.md, peers beside us
   heldout    flight sensors on terrain, seeds and Sun angles the defaults never saw
   kitti      the real KITTI 98 deg turn clip (../shared/data/kitti_clip_turn)
+  altimeter  vision + laser altimeter (config/lunar_altimeter.yaml) on the six flight-sensor datasets: metric, so
+             vo_run is handed the first true pose only (--initial-state-from-groundtruth) and the end, velocity
+             and tilt columns are scored without any alignment (vo_eval --align none)
 
 Usage (after `bash scripts/demo.sh` has built the tools):
   /usr/bin/python3 scripts/vo_benchmark.py [--groups flight,ideal,...] [--sequences a,b] [--configs default,...]
@@ -68,6 +71,8 @@ def default_rows():
     rows.append(lunar_row("heldout", "approach_nozzle", 1024, "flight", seed=13, placement_rank=2,
                           sun_elevation=45.0, sun_azimuth=30.0, sensor_seed=13))
     rows.append({"group": "kitti", "sequence": "kitti_clip_turn", "size": None, "sensors": "real camera"})
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("altimeter", s, 1024, "flight", configs=["lunar_altimeter"], metric=True))
     return rows
 
 
@@ -234,7 +239,7 @@ def main():
     ap.add_argument("--build", default=os.environ.get("PLANETARY_VO_BUILD", os.path.join(ROOT, "build")))
     ap.add_argument("--output", default=os.path.join(ROOT, "output", "benchmark"))
     ap.add_argument("--data", default=os.environ.get("PLANETARY_VO_DATA", os.path.join(ROOT, "..", "shared", "data")))
-    ap.add_argument("--groups", default="flight,ideal,ideal512,heldout,kitti")
+    ap.add_argument("--groups", default="flight,ideal,ideal512,heldout,kitti,altimeter")
     ap.add_argument("--sequences", default="", help="comma-separated sequence names to keep (default: all)")
     ap.add_argument("--duration", type=float, default=0.0, help="render only the first S seconds (0 = all)")
     ap.add_argument("--configs", default="default", help="VO configurations (config/NAME.yaml)")
@@ -279,7 +284,7 @@ def main():
             if rc != 0:
                 sys.exit(f"vo_benchmark: rendering {name} failed, see {dataset}.render.log")
             print(f"[{name}] dataset ready ({secs:.0f} s)", flush=True)
-        configs = args.configs.split(",")
+        configs = row.get("configs", args.configs.split(","))
         if args.thesis_configs and row["group"] == "ideal":
             configs += ["thesis_F", "thesis_E", "thesis_H"]
         for config in configs:
@@ -291,8 +296,9 @@ def main():
             run_log = os.path.join(out, "vo_run.log")
             config_path = os.path.join(ROOT, "config", config + ".yaml")
             stamp = os.path.join(dataset, "render_stamp.txt") if row["sequence"] != "kitti_clip_turn" else gt
+            handover = ["--initial-state-from-groundtruth"] if row.get("metric") else []
             rc, reused = run_vo([os.path.join(bin_dir, "vo_run"), "--dataset", dataset, "--config", config_path,
-                                 "--output", traj], run_log, traj,
+                                 "--output", traj] + handover, run_log, traj,
                                 [stamp, config_path, os.path.join(bin_dir, "vo_run")], args.rerun_vo)
             r.update({"coverage": 0.0, "vo_run_rc": rc, "vo_run_reused": reused,
                       "run_dir": os.path.relpath(out, args.output)})
@@ -309,8 +315,10 @@ def main():
                 if run(cmd, os.path.join(out, "vo_eval_sim3.log"))[0] == 0:
                     with open(sim3_json) as f:
                         sim3 = json.load(f)
-                cmd = common + ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S),
-                                "--json", first_json]
+                # A metric estimate handed its first pose is scored as guidance reads it: no alignment at all.
+                align = ["--align", "none"] if row.get("metric") else \
+                    ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S)]
+                cmd = common + align + ["--json", first_json]
                 if run(cmd, os.path.join(out, "vo_eval_first.log"))[0] == 0:
                     with open(first_json) as f:
                         first = json.load(f)
@@ -326,7 +334,7 @@ def main():
     if os.path.exists(results_path):
         with open(results_path) as f:
             results += [r for r in json.load(f) if "group" in r and row_key(r) not in run_now]
-    order = ["flight", "ideal", "ideal512", "heldout", "kitti"]
+    order = ["flight", "ideal", "ideal512", "heldout", "kitti", "altimeter"]
     results.sort(key=lambda r: (order.index(r["group"]) if r["group"] in order else len(order),
                                 LUNAR_SEQUENCES.index(r["sequence"]) if r["sequence"] in LUNAR_SEQUENCES else 9))
     tables = format_tables(results)
@@ -358,7 +366,8 @@ def format_row(r):
             f"{r['config']} | {fmt(r.get('ate_percent'), '.3f')} | {fmt(r.get('drift_deg'), '.3f')} | "
             f"{fmt(r.get('rpe1_percent'), '.2f')} | {fmt(r.get('rpe_dist_percent'), '.2f')} | "
             f"{fmt(r.get('scale_err_percent'), '.2f')} | {end} | "
-            f"{fmt(r.get('velocity_rms_mps'), '.2f')} | {fmt(r.get('end_tilt_deg'), '.3f')} | - (no metric scale) | "
+            f"{fmt(r.get('velocity_rms_mps'), '.2f')} | {fmt(r.get('end_tilt_deg'), '.3f')} | "
+            f"{'- (no covariance yet)' if r.get('metric') else '- (no metric scale)'} | "
             f"{r.get('coverage', 0) * 100:.0f} % | {r['mark']} | "
             f"{fmt(r.get('track_median_ms'), '.1f')} / {fmt(r.get('track_p99_ms'), '.1f')} |")
 
@@ -401,7 +410,9 @@ def write_docs(tables, results, args):
              "error over pose pairs one tenth of the path length apart (fixed distance), in % of that distance; "
              "scale err = RMS of the windowed scale error "
              "(scale drift); end err, velocity err and end tilt after the first-pose alignment with the scale of "
-             f"the first {FIRST_SCALE_WINDOW_S:g} s (the initial state handed over); SE3 ATE and NEES need a metric "
+             f"the first {FIRST_SCALE_WINDOW_S:g} s (the initial state handed over), except for the "
+             "`lunar_altimeter` rows (vision + altimeter, metric): they are handed the first true pose only and "
+             "scored without any alignment; SE3 ATE and NEES need a metric "
              "estimate with a covariance (the monocular VO has neither); posed = frames with an estimated pose "
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
              "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "
