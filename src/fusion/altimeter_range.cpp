@@ -171,18 +171,24 @@ PlaneFit fitPlaneRobust(const std::vector<Eigen::Vector3d>& points, const std::v
   std::vector<double> support_var;
   for (size_t m : support) support_var.push_back(point_var[m]);
   double roughness2 = std::max(0.0, lmeds_sigma * lmeds_sigma - median(support_var));
-  for (int iteration = 0; iteration < 10; ++iteration) {
+  // The weighted plane of the current inliers; false (with status and reason set) when too few remain or they
+  // are collinear.
+  auto fitInliers = [&]() {
     if (fit.inliers.size() < static_cast<size_t>(options.min_support_points)) {
       fit.status = RangePredictionStatus::kTooFewPoints;
       fit.reason = "only " + std::to_string(fit.inliers.size()) + " of the " + std::to_string(n) +
                    " points around the hit fit a plane, need " + std::to_string(options.min_support_points);
-      return fit;
+      return false;
     }
     if (!weightedPlane(points, point_var, fit.inliers, roughness2, var_floor, viewpoint, &fit.plane)) {
       fit.status = RangePredictionStatus::kDegenerateSupport;
       fit.reason = "the inliers around the hit are collinear";
-      return fit;
+      return false;
     }
+    return true;
+  };
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    if (!fitInliers()) return fit;
     std::vector<double> r2, var;
     for (size_t m : fit.inliers) {
       r2.push_back(std::pow(fit.plane.normal_world.dot(points[m] - fit.plane.centroid_world), 2));
@@ -202,17 +208,7 @@ PlaneFit fitPlaneRobust(const std::vector<Eigen::Vector3d>& points, const std::v
     fit.inliers = std::move(inliers);
   }
   // The plane and covariance must describe the final inlier set and roughness.
-  if (fit.inliers.size() < static_cast<size_t>(options.min_support_points)) {
-    fit.status = RangePredictionStatus::kTooFewPoints;
-    fit.reason = "only " + std::to_string(fit.inliers.size()) + " of the " + std::to_string(n) +
-                 " points around the hit fit a plane, need " + std::to_string(options.min_support_points);
-    return fit;
-  }
-  if (!weightedPlane(points, point_var, fit.inliers, roughness2, var_floor, viewpoint, &fit.plane)) {
-    fit.status = RangePredictionStatus::kDegenerateSupport;
-    fit.reason = "the inliers around the hit are collinear";
-    return fit;
-  }
+  if (!fitInliers()) return fit;
   fit.plane.roughness = std::sqrt(roughness2);
   return fit;
 }

@@ -7,17 +7,12 @@
 #include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
 
+#include "planetary_vo/geometry/median.h"
+
 namespace planetary_vo {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-double median(std::vector<double>* values) {
-  if (values->empty()) return 0.0;
-  auto mid = values->begin() + values->size() / 2;
-  std::nth_element(values->begin(), mid, values->end());
-  return *mid;
-}
 
 bool selected(const std::vector<std::uint8_t>& mask, std::size_t i) { return mask.empty() || mask[i]; }
 
@@ -90,7 +85,7 @@ PoseRecovery recoverPoseFromEssential(const Eigen::Matrix3d& E, const std::vecto
   std::vector<double> parallax;
   parallax.reserve(out.num_in_front);
   countInFront(out.R_c2_c1, out.t_c2_c1_unit, xn1, xn2, mask, &parallax);
-  out.median_parallax_deg = median(&parallax);
+  out.median_parallax_deg = medianInPlace(&parallax);
   return out;
 }
 
@@ -169,7 +164,7 @@ PoseRecovery recoverPoseFromHomography(const Eigen::Matrix3d& H_normalized,
   std::vector<double> parallax;
   for (std::size_t i = 0; i < xn1.size(); ++i)
     if (selected(mask, i)) parallax.push_back(parallaxAngleDeg(out.R_c2_c1, xn1[i], xn2[i]));
-  out.median_parallax_deg = median(&parallax);
+  out.median_parallax_deg = medianInPlace(&parallax);
   out.homography_candidates = std::move(candidates);
   return out;
 }

@@ -88,12 +88,10 @@ struct RangeOnCameraAndPoints {
     Eigen::Matrix<T, 3, 1> mean = Eigen::Matrix<T, 3, 1>::Zero();
     for (int i = 0; i < num_points; ++i) mean += Eigen::Map<const Eigen::Matrix<T, 3, 1>>(blocks[2 + i]);
     mean /= T(num_points);
-    const Eigen::Matrix<T, 3, 1> n = normal.cast<T>();
-    const Eigen::Matrix<T, 3, 1> direction = q_world_cam * boresight_cam.cast<T>();
-    const Eigen::Matrix<T, 3, 1> origin = centre + q_world_cam * origin_cam.cast<T>();
-    const T cos_incidence = -n.dot(direction);
-    if (!(cos_incidence > T(AltimeterRangeFactor::kMinCosIncidence))) return false;
-    const T range = (n.dot(origin - mean) - T(offset)) / cos_incidence;
+    T range;
+    if (!beamRangeToPlane(q_world_cam, centre, origin_cam, boresight_cam, normal,
+                          Eigen::Matrix<T, 3, 1>(mean + T(offset) * normal.cast<T>()), &range))
+      return false;
     residual[0] = (range - T(measured_m)) / T(sigma_m);
     return true;
   }

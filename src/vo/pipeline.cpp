@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "planetary_vo/geometry/median.h"
 #include "planetary_vo/vo/motion_prior.h"
 #include "planetary_vo/vo/scale_bridge.h"
 
@@ -17,13 +18,6 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-double median(std::vector<double>* values) {
-  if (values->empty()) return 0.0;
-  const size_t mid = values->size() / 2;
-  std::nth_element(values->begin(), values->begin() + static_cast<std::ptrdiff_t>(mid), values->end());
-  return (*values)[mid];
 }
 
 Pose scaledInverse(const Pose& T_c2_c1_unit, double scale) {
@@ -330,7 +324,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
   scratch_.clear();
   for (size_t i = 0; i < px_ref_.size(); ++i)
     scratch_.push_back(std::hypot(px_ref_[i].x - px_cur_[i].x, px_ref_[i].y - px_cur_[i].y));
-  const double median_flow_deg = std::atan(median(&scratch_) / K_(0, 0)) * 180.0 / M_PI;
+  const double median_flow_deg = std::atan(medianInPlace(&scratch_) / K_(0, 0)) * 180.0 / M_PI;
   if (median_flow_deg < config_.motion.min_parallax_deg) {
     holdPose(result, "waiting for parallax (" + std::to_string(median_flow_deg) + " deg)");
     result->times.motion_ms = msSince(start);
@@ -570,20 +564,24 @@ std::vector<BaRangeObservation> Pipeline::altimeterRanges() const {
 void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (!config_.bundle_adjustment.enabled) return;
   const Clock::time_point start = Clock::now();
-  std::vector<BaRangeObservation> ranges = altimeterRanges();
-  BaProblem problem;
-  for (const int num_fixed : {kNumFixedBaKeyframesWithRanges, kNumFixedBaKeyframes}) {
-    if (num_fixed == kNumFixedBaKeyframesWithRanges && ranges.size() < kMinRangeFactorsForScale) continue;
-    problem = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),
-                                 camera_.fy(), camera_.cx(), camera_.cy());
-    problem.ranges.clear();
+  const std::vector<BaRangeObservation> ranges = altimeterRanges();
+  // The window with `num_fixed` oldest keyframes fixed, and the ranges of its free keyframes.
+  auto makeProblem = [&](int num_fixed) {
+    BaProblem p = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),
+                                     camera_.fy(), camera_.cx(), camera_.cy());
     for (const BaRangeObservation& r : ranges) {
-      const auto kf = std::find_if(problem.keyframes.begin(), problem.keyframes.end(),
+      const auto kf = std::find_if(p.keyframes.begin(), p.keyframes.end(),
                                    [&r](const BaKeyframe& k) { return k.id == r.keyframe_id; });
-      if (kf != problem.keyframes.end() && !kf->fixed) problem.ranges.push_back(r);
+      if (kf != p.keyframes.end() && !kf->fixed) p.ranges.push_back(r);
     }
-    if (num_fixed == kNumFixedBaKeyframes || problem.ranges.size() >= kMinRangeFactorsForScale) break;
-  }
+    return p;
+  };
+  // Gauge policy: the ranges hold the scale only when at least two free keyframes carry one.
+  const int num_fixed =
+      ranges.size() >= kMinRangeFactorsForScale ? kNumFixedBaKeyframesWithRanges : kNumFixedBaKeyframes;
+  BaProblem problem = makeProblem(num_fixed);
+  if (num_fixed == kNumFixedBaKeyframesWithRanges && problem.ranges.size() < kMinRangeFactorsForScale)
+    problem = makeProblem(kNumFixedBaKeyframes);
   const bool has_free_pose = std::any_of(problem.keyframes.begin(), problem.keyframes.end(),
                                          [](const BaKeyframe& k) { return !k.fixed; });
   if (!has_free_pose || problem.points.empty()) return;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "planetary_vo/geometry/median.h"
 #include "planetary_vo/vo/motion_prior.h"
 
 namespace planetary_vo {
@@ -14,12 +15,6 @@ constexpr double kSharedPointsBridgeConfidence = 0.8;
 constexpr double kSpeedBridgeConfidence = 0.5;
 constexpr double kDepthBridgeConfidence = 0.3;
 constexpr int kMinSharedPointsForBridge = 5;
-
-double median(std::vector<double>* values) {
-  const size_t mid = values->size() / 2;
-  std::nth_element(values->begin(), values->begin() + static_cast<std::ptrdiff_t>(mid), values->end());
-  return (*values)[mid];
-}
 
 }  // namespace
 
@@ -51,7 +46,7 @@ ScaleBridge bridgeScale(const Map& old_map, const Pose& T_world_ref, double t_re
     if (old_depth > 0.0 && init.points_c1[i].z() > 0.0) ratios.push_back(old_depth / init.points_c1[i].z());
   }
   if (static_cast<int>(ratios.size()) >= kMinSharedPointsForBridge) {
-    bridge.scale = median(&ratios);
+    bridge.scale = medianInPlace(&ratios);
     bridge.confidence_factor = kSharedPointsBridgeConfidence;
     bridge.source = ScaleBridgeSource::kSharedPoints;
     return bridge;
@@ -73,7 +68,7 @@ ScaleBridge bridgeScale(const Map& old_map, const Pose& T_world_ref, double t_re
     if (z > 0.0) depths.push_back(z);
   }
   if (!depths.empty() && init.median_depth > 0.0) {
-    bridge.scale = median(&depths) / init.median_depth;
+    bridge.scale = medianInPlace(&depths) / init.median_depth;
     bridge.confidence_factor = kDepthBridgeConfidence;
     bridge.source = ScaleBridgeSource::kSceneDepth;
   }

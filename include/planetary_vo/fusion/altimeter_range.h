@@ -183,14 +183,38 @@ RangePrediction predictRange(const std::vector<Eigen::Vector3d>& points_world,
 double altimeterResidualSigmaM(const AltimeterNoise& noise, double measured_range_m,
                                const RangePrediction& prediction, double metres_per_map_unit = 1.0);
 
+/// The beam may meet a plane only up to this incidence: cos > 1e-3 (~89.94 deg).
+constexpr double kAltimeterMinCosIncidence = 1e-3;
+
+/// The geometry of every range residual: the distance along the altimeter beam of the body pose
+/// (q_world_body, p_world_body) to the plane through `plane_point_world` with unit normal `normal_world` (on
+/// the sensor's side). False when the beam does not point toward the plane (incidence beyond
+/// kAltimeterMinCosIncidence), so that a Ceres evaluation fails and Levenberg-Marquardt rejects the step.
+template <typename T>
+bool beamRangeToPlane(const Eigen::Quaternion<T>& q_world_body, const Eigen::Matrix<T, 3, 1>& p_world_body,
+                      const Eigen::Vector3d& origin_body_m, const Eigen::Vector3d& boresight_body,
+                      const Eigen::Vector3d& normal_world, const Eigen::Matrix<T, 3, 1>& plane_point_world,
+                      T* range) {
+  const Eigen::Matrix<T, 3, 1> n = normal_world.cast<T>();
+  const Eigen::Matrix<T, 3, 1> direction = q_world_body * boresight_body.cast<T>();
+  const Eigen::Matrix<T, 3, 1> origin = p_world_body + q_world_body * origin_body_m.cast<T>();
+  const T cos_incidence = -n.dot(direction);
+  if (!(cos_incidence > T(kAltimeterMinCosIncidence))) return false;
+  *range = n.dot(origin - plane_point_world) / cos_incidence;
+  return true;
+}
+
 /// Altimeter factor of a METRIC map: residual = (range from the body pose along the beam to the fixed
 /// plane - measured range) / sigma_m, dimensionless. Parameter blocks: q_world_body (4, Eigen order x, y, z,
 /// w, to be used with ceres::EigenQuaternionManifold) and p_world_body (3, metres). The plane, the mounting,
 /// the measurement and sigma are constants of the factor.
 ///
-/// Why the plane is fixed: it summarises many map points for a 1-D residual; making it a function of them
-/// would tie every altimeter factor to dozens of point blocks (and duplicate their weight, since the same
-/// points already carry reprojection factors). Its uncertainty is in sigma instead. Refit it (predictRange())
+/// Why the plane is fixed: it summarises many map points for a 1-D residual; making it a function of all of
+/// them would tie every altimeter factor to dozens of point blocks. Its uncertainty is in sigma instead. This
+/// is right only where the map's scale is held by something else: in a window whose scale is free (the
+/// vision + altimeter bundle adjustment fixes only its oldest keyframe), a plane frozen in the world makes
+/// the scale diverge, and the bundle adjuster instead moves the plane with the mean of a few support points
+/// (src/vo/bundle_adjuster.cpp, same geometry: beamRangeToPlane()). Refit it (predictRange())
 /// when the map around the hit has moved (after each local bundle adjustment of those points, i.e. at each
 /// new keyframe) or when the pose has moved the hit out of the support (|hit - centroid| beyond the support
 /// radius); after a change of the map's gauge (e.g. the scale initialisation), transform it with the map.
@@ -206,19 +230,16 @@ struct AltimeterRangeFactor {
 
   template <typename T>
   bool operator()(const T* q_world_body, const T* p_world_body, T* residual) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> q(q_world_body);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(p_world_body);
-    const Eigen::Matrix<T, 3, 1> n = normal_.cast<T>();
-    const Eigen::Matrix<T, 3, 1> direction = q * boresight_.cast<T>();
-    const Eigen::Matrix<T, 3, 1> origin = p + q * origin_.cast<T>();
-    const T cos_incidence = -n.dot(direction);
-    if (!(cos_incidence > T(kMinCosIncidence))) return false;
-    const T range = n.dot(origin - centroid_.cast<T>()) / cos_incidence;
+    T range;
+    if (!beamRangeToPlane(Eigen::Quaternion<T>(Eigen::Map<const Eigen::Quaternion<T>>(q_world_body)),
+                          Eigen::Matrix<T, 3, 1>(Eigen::Map<const Eigen::Matrix<T, 3, 1>>(p_world_body)),
+                          origin_, boresight_, normal_, Eigen::Matrix<T, 3, 1>(centroid_.cast<T>()), &range))
+      return false;
     residual[0] = (range - T(measured_range_m_)) / T(sigma_m_);
     return true;
   }
 
-  static constexpr double kMinCosIncidence = 1e-3;  ///< ~89.94 deg
+  static constexpr double kMinCosIncidence = kAltimeterMinCosIncidence;
   Eigen::Vector3d centroid_, normal_, origin_, boresight_;
   double measured_range_m_, sigma_m_;
 };

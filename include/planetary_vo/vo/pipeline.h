@@ -107,7 +107,6 @@ class Pipeline {
   const Map& map() const { return map_; }
   const PinholeCamera& camera() const { return camera_; }
   const VoConfig& config() const { return config_; }
-  PipelineStage stage() const { return stage_; }
   /// Live tracks of the last processed frame (distorted pixels), e.g. to draw the tracking image.
   const std::vector<FeatureTrack>& tracks() const { return tracker_.tracks(); }
 

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "fusion_test_util.h"
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/fusion/imu_preintegration.h"
@@ -30,17 +31,6 @@ const Eigen::Vector3d kGravity = kLunarGravityWorldMps2;
 // Integration-scheme error bounds of a known-bias prediction over 1-2 s at 200 Hz (justified in
 // KnownBiasPredictsTheTrueStateOnAllDescents).
 constexpr double kRotationTolRad = 5e-7, kVelocityTolMps = 2e-6, kPositionTolM = 5e-6;
-
-/// The error model with only the constant turn-on biases of a grade: no white noise, no bias instability or
-/// random walk, no scale factor, misalignment, quantisation or saturation.
-sensors::ImuErrorParams constantBiasOnly(const std::string& grade) {
-  const sensors::ImuErrorParams g = sensors::imuGrade(grade);
-  sensors::ImuErrorParams p;
-  p.enabled = true;
-  p.gyro.turn_on_bias = g.gyro.turn_on_bias;
-  p.accel.turn_on_bias = g.accel.turn_on_bias;
-  return p;
-}
 
 /// IMU samples and true states over [t0, t1] at kRateHz on the sample grid k / rate, produced exactly as the
 /// renderer does (the error model runs from t = 0 so that its state at t0 is the renderer's).
@@ -60,17 +50,6 @@ SimulatedImu simulateImu(const render::DescentTrajectory& trajectory, double t0,
   }
   sim.true_bias = {model.trueErrors().gyro_bias_radps, model.trueErrors().accel_bias_mps2};
   return sim;
-}
-
-/// The true NavState at t from the continuous trajectory (exact, not on the sample grid).
-NavState trueState(const render::DescentTrajectory& trajectory, double t, const ImuBias& bias) {
-  const render::TrajectoryState s = trajectory.state(t);
-  NavState n;
-  n.timestamp_s = t;
-  n.T_world_body = s.T_world_cam();
-  n.v_world_mps = s.velocity;
-  n.setBias(bias);
-  return n;
 }
 
 struct StateError {

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "fusion_test_util.h"
 #include "planetary_vo/fusion/imu_preintegration.h"
 #include "planetary_vo/fusion/inertial_factors.h"
 #include "planetary_vo/render/descent_trajectory.h"
@@ -37,15 +38,6 @@ std::vector<ImuSample> simulateImu(const render::DescentTrajectory& trajectory, 
   return samples;
 }
 
-sensors::ImuErrorParams memsTurnOnBiasOnly() {
-  const sensors::ImuErrorParams g = sensors::imuGrade("mems");
-  sensors::ImuErrorParams p;
-  p.enabled = true;
-  p.gyro.turn_on_bias = g.gyro.turn_on_bias;
-  p.accel.turn_on_bias = g.accel.turn_on_bias;
-  return p;
-}
-
 /// The noise densities of the MEMS grade (what sensors.yaml would say), with the random walks.
 ImuNoiseParams memsNoise() {
   const sensors::ImuErrorParams g = sensors::imuGrade("mems");
@@ -54,16 +46,6 @@ ImuNoiseParams memsNoise() {
   n.accel_noise_density_mps2_per_sqrt_hz = g.accel.white_noise_density;
   n.gyro_random_walk_radps2_per_sqrt_hz = std::max(g.gyro.bias_random_walk, 1e-5);
   n.accel_random_walk_mps3_per_sqrt_hz = std::max(g.accel.bias_random_walk, 1e-4);
-  return n;
-}
-
-NavState trueState(const render::DescentTrajectory& trajectory, double t, const ImuBias& bias) {
-  const render::TrajectoryState s = trajectory.state(t);
-  NavState n;
-  n.timestamp_s = t;
-  n.T_world_body = s.T_world_cam();
-  n.v_world_mps = s.velocity;
-  n.setBias(bias);
   return n;
 }
 
@@ -161,7 +143,7 @@ struct Window {
 /// correction is exercised) with the MEMS noise densities.
 Window pitchWindow() {
   Window w;
-  w.samples = simulateImu(w.trajectory, w.t0, w.t1, memsTurnOnBiasOnly(), 4, &w.true_bias);
+  w.samples = simulateImu(w.trajectory, w.t0, w.t1, constantBiasOnly("mems"), 4, &w.true_bias);
   const ImuBias linearization{0.9 * w.true_bias.gyro_radps, 0.9 * w.true_bias.accel_mps2};
   w.pre = std::make_shared<ImuPreintegration>(w.samples, w.t0, w.t1, linearization, memsNoise());
   return w;
@@ -306,7 +288,7 @@ TEST(InertialFactors, SolveRecoversStatesAndBiases) {
   const int n = 5;
   ImuBias true_bias;
   const std::vector<ImuSample> samples =
-      simulateImu(trajectory, t0, t0 + (n - 1) * dt, memsTurnOnBiasOnly(), 21, &true_bias);
+      simulateImu(trajectory, t0, t0 + (n - 1) * dt, constantBiasOnly("mems"), 21, &true_bias);
   const ImuNoiseParams noise = memsNoise();
 
   std::vector<NavState> truth;
