@@ -24,6 +24,9 @@ Groups of rows (--groups, default all):
   altimeter  vision + laser altimeter (config/lunar_altimeter.yaml) on the six flight-sensor datasets: metric, so
              vo_run is handed the first true pose only (--initial-state-from-groundtruth) and the end, velocity
              and tilt columns are scored without any alignment (vo_eval --align none)
+  imu        camera + IMU (config/lunar_imu.yaml), the same way, handed the first true pose and velocity; the
+             velocity column is the estimator's own velocity (vo_run --output-velocity)
+  fused      camera + IMU + altimeter (config/lunar_fused.yaml), the same way
 
 Usage (after `bash scripts/demo.sh` has built the tools):
   /usr/bin/python3 scripts/vo_benchmark.py [--groups flight,ideal,...] [--sequences a,b] [--configs default,...]
@@ -73,6 +76,10 @@ def default_rows():
     rows.append({"group": "kitti", "sequence": "kitti_clip_turn", "size": None, "sensors": "real camera"})
     for s in LUNAR_SEQUENCES:
         rows.append(lunar_row("altimeter", s, 1024, "flight", configs=["lunar_altimeter"], metric=True))
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("imu", s, 1024, "flight", configs=["lunar_imu"], metric=True, velocity=True))
+    for s in LUNAR_SEQUENCES:
+        rows.append(lunar_row("fused", s, 1024, "flight", configs=["lunar_fused"], metric=True, velocity=True))
     return rows
 
 
@@ -239,7 +246,7 @@ def main():
     ap.add_argument("--build", default=os.environ.get("PLANETARY_VO_BUILD", os.path.join(ROOT, "build")))
     ap.add_argument("--output", default=os.path.join(ROOT, "output", "benchmark"))
     ap.add_argument("--data", default=os.environ.get("PLANETARY_VO_DATA", os.path.join(ROOT, "..", "shared", "data")))
-    ap.add_argument("--groups", default="flight,ideal,ideal512,heldout,kitti,altimeter")
+    ap.add_argument("--groups", default="flight,ideal,ideal512,heldout,kitti,altimeter,imu,fused")
     ap.add_argument("--sequences", default="", help="comma-separated sequence names to keep (default: all)")
     ap.add_argument("--duration", type=float, default=0.0, help="render only the first S seconds (0 = all)")
     ap.add_argument("--configs", default="default", help="VO configurations (config/NAME.yaml)")
@@ -297,6 +304,9 @@ def main():
             config_path = os.path.join(ROOT, "config", config + ".yaml")
             stamp = os.path.join(dataset, "render_stamp.txt") if row["sequence"] != "kitti_clip_turn" else gt
             handover = ["--initial-state-from-groundtruth"] if row.get("metric") else []
+            velocity = os.path.join(out, "velocity.txt")
+            if row.get("velocity"):
+                handover += ["--output-velocity", velocity]
             rc, reused = run_vo([os.path.join(bin_dir, "vo_run"), "--dataset", dataset, "--config", config_path,
                                  "--output", traj] + handover, run_log, traj,
                                 [stamp, config_path, os.path.join(bin_dir, "vo_run")], args.rerun_vo)
@@ -319,6 +329,8 @@ def main():
                 align = ["--align", "none"] if row.get("metric") else \
                     ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S)]
                 cmd = common + align + ["--json", first_json]
+                if row.get("velocity"):
+                    cmd += ["--est-velocity", velocity]
                 if run(cmd, os.path.join(out, "vo_eval_first.log"))[0] == 0:
                     with open(first_json) as f:
                         first = json.load(f)
@@ -334,7 +346,7 @@ def main():
     if os.path.exists(results_path):
         with open(results_path) as f:
             results += [r for r in json.load(f) if "group" in r and row_key(r) not in run_now]
-    order = ["flight", "ideal", "ideal512", "heldout", "kitti", "altimeter"]
+    order = ["flight", "ideal", "ideal512", "heldout", "kitti", "altimeter", "imu", "fused"]
     results.sort(key=lambda r: (order.index(r["group"]) if r["group"] in order else len(order),
                                 LUNAR_SEQUENCES.index(r["sequence"]) if r["sequence"] in LUNAR_SEQUENCES else 9))
     tables = format_tables(results)
@@ -412,7 +424,9 @@ def write_docs(tables, results, args):
              "(scale drift); end err, velocity err and end tilt after the first-pose alignment with the scale of "
              f"the first {FIRST_SCALE_WINDOW_S:g} s (the initial state handed over), except for the "
              "`lunar_altimeter` rows (vision + altimeter, metric): they are handed the first true pose only and "
-             "scored without any alignment; SE3 ATE and NEES need a metric "
+             "scored without any alignment, and the `lunar_imu` / `lunar_fused` rows (camera + IMU, with the "
+             "altimeter): handed the first true pose and velocity, scored without any alignment, velocity error "
+             "of the estimator's own velocity; SE3 ATE and NEES need a metric "
              "estimate with a covariance (the monocular VO has neither); posed = frames with an estimated pose "
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
              "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "

@@ -12,8 +12,8 @@
 
 namespace planetary_vo::ros_io {
 
-const char* const kVoConfigSections[9] = {"detector", "tracker",           "map",      "keyframe", "motion",
-                                          "pnp",      "bundle_adjustment", "pipeline", "altimeter"};
+const char* const kVoConfigSections[10] = {"detector", "tracker",           "map",      "keyframe", "motion",
+                                          "pnp",      "bundle_adjustment", "pipeline", "altimeter", "imu"};
 
 namespace {
 

@@ -20,8 +20,11 @@
 #include <utility>
 
 #include <ceres/ceres.h>
+#include <ceres/jet.h>
 #include <ceres/manifold.h>
 #include <Eigen/Geometry>
+
+#include "planetary_vo/fusion/inertial_factors.h"
 
 namespace planetary_vo {
 namespace {
@@ -110,6 +113,98 @@ struct RangeOnCameraAndPoints {
   Eigen::Vector3d normal, origin_cam, boresight_cam;
   double measured_m, sigma_m, offset = 0.0;
   int num_points;
+};
+
+/// The body (IMU) pose of a camera pose block: q_world_body = q_cam_world^-1 q_cam_imu and p_world_body =
+/// R_world_cam (t_cam_imu - t_cam_world), the quaternion normalised first (so the derivative is that of
+/// the normalised quaternion, as the inertial factors expect).
+template <typename T>
+void bodyPoseOfCamera(const T* q_cam_world, const T* t_cam_world, const Eigen::Quaterniond& q_cam_imu,
+                      const Eigen::Vector3d& t_cam_imu, T* q_world_body, T* p_world_body) {
+  const Eigen::Quaternion<T> q_world_cam =
+      Eigen::Map<const Eigen::Quaternion<T>>(q_cam_world).normalized().conjugate();
+  const Eigen::Matrix<T, 3, 1> t(t_cam_world[0], t_cam_world[1], t_cam_world[2]);
+  Eigen::Map<Eigen::Quaternion<T>> q_out(q_world_body);
+  Eigen::Map<Eigen::Matrix<T, 3, 1>> p_out(p_world_body);
+  q_out = q_world_cam * q_cam_imu.cast<T>();
+  p_out = q_world_cam * (t_cam_imu.cast<T>() - t);
+}
+
+/// The preintegrated IMU factor (fusion/inertial_factors.h, analytic Jacobians) on the bundle adjuster's
+/// camera pose blocks: the poses are converted to body poses and the chain rule applied with the Jacobian
+/// of that conversion (forward-mode jets over its 7 inputs). Blocks: q_cw_i (4), t_cw_i (3), v_i, bg_i, ba_i,
+/// q_cw_j (4), t_cw_j (3), v_j.
+class ImuOnCameraPoses final : public ceres::SizedCostFunction<9, 4, 3, 3, 3, 3, 4, 3, 3> {
+ public:
+  ImuOnCameraPoses(std::shared_ptr<const ImuPreintegration> preintegration, const Eigen::Vector3d& gravity,
+                   const Pose& T_cam_imu)
+      : imu_(std::move(preintegration), gravity),
+        q_cam_imu_(Eigen::Quaterniond(T_cam_imu.linear()).normalized()),
+        t_cam_imu_(T_cam_imu.translation()) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    using Jet = ceres::Jet<double, 7>;
+    // Body poses of i and j with d(q_wb, p_wb) / d(q_cw, t_cw) (7 x 7, rows q_wb then p_wb).
+    std::array<std::array<double, 4>, 2> q_wb;
+    std::array<std::array<double, 3>, 2> p_wb;
+    std::array<Eigen::Matrix<double, 7, 7>, 2> J_conv;
+    const int pose_block[2] = {0, 5};
+    for (int s = 0; s < 2; ++s) {
+      Jet q[4], t[3], qb[4], pb[3];
+      for (int k = 0; k < 4; ++k) q[k] = Jet(parameters[pose_block[s]][k], k);
+      for (int k = 0; k < 3; ++k) t[k] = Jet(parameters[pose_block[s] + 1][k], 4 + k);
+      bodyPoseOfCamera(q, t, q_cam_imu_, t_cam_imu_, qb, pb);
+      for (int k = 0; k < 4; ++k) {
+        q_wb[s][k] = qb[k].a;
+        J_conv[s].row(k) = qb[k].v.transpose();
+      }
+      for (int k = 0; k < 3; ++k) {
+        p_wb[s][k] = pb[k].a;
+        J_conv[s].row(4 + k) = pb[k].v.transpose();
+      }
+    }
+    const double* inner[8] = {q_wb[0].data(), p_wb[0].data(), parameters[2], parameters[3],
+                              parameters[4],  q_wb[1].data(), p_wb[1].data(), parameters[7]};
+    if (jacobians == nullptr) return imu_.Evaluate(inner, residuals, nullptr);
+    // Jacobians of the inner factor w.r.t. q_wb / p_wb of i and j (row-major 9 x 4 and 9 x 3).
+    Eigen::Matrix<double, 9, 4, Eigen::RowMajor> Jq[2];
+    Eigen::Matrix<double, 9, 3, Eigen::RowMajor> Jp[2];
+    double* inner_jac[8] = {Jq[0].data(), Jp[0].data(), jacobians[2], jacobians[3],
+                            jacobians[4], Jq[1].data(), Jp[1].data(), jacobians[7]};
+    if (!imu_.Evaluate(inner, residuals, inner_jac)) return false;
+    for (int s = 0; s < 2; ++s) {
+      double* jq = jacobians[pose_block[s]];
+      double* jt = jacobians[pose_block[s] + 1];
+      if (jq != nullptr) {
+        Eigen::Map<Eigen::Matrix<double, 9, 4, Eigen::RowMajor>> J(jq);
+        J = Jq[s] * J_conv[s].block<4, 4>(0, 0) + Jp[s] * J_conv[s].block<3, 4>(4, 0);
+      }
+      if (jt != nullptr) {
+        Eigen::Map<Eigen::Matrix<double, 9, 3, Eigen::RowMajor>> J(jt);
+        J = Jq[s] * J_conv[s].block<4, 3>(0, 4) + Jp[s] * J_conv[s].block<3, 3>(4, 4);
+      }
+    }
+    return true;
+  }
+
+ private:
+  ImuFactor imu_;
+  Eigen::Quaterniond q_cam_imu_;
+  Eigen::Vector3d t_cam_imu_;
+};
+
+/// Gaussian prior on the gyro and accelerometer biases of one keyframe: residual (b - mean) / sigma.
+struct BiasPriorResidual {
+  explicit BiasPriorResidual(const BaBiasPrior& p) : prior(p) {}
+  template <typename T>
+  bool operator()(const T* bg, const T* ba, T* r) const {
+    for (int k = 0; k < 3; ++k) {
+      r[k] = (bg[k] - T(prior.mean.gyro_radps[k])) / T(prior.gyro_sigma_radps);
+      r[3 + k] = (ba[k] - T(prior.mean.accel_mps2[k])) / T(prior.accel_sigma_mps2);
+    }
+    return true;
+  }
+  BaBiasPrior prior;
 };
 
 /// Stops the solve at the next iteration once the flag is raised (AsyncBundleAdjuster's destructor).
@@ -327,6 +422,67 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
     ++summary.range_factors;
   }
 
+  // Inertial states (velocity, biases) and their factors.
+  BaInertial& inertial = problem->inertial;
+  std::unordered_map<uint64_t, size_t> state_index;
+  for (size_t st = 0; st < inertial.states.size(); ++st)
+    if (!state_index.emplace(inertial.states[st].keyframe_id, st).second)
+      throw std::invalid_argument("bundle adjustment: two inertial states of keyframe " +
+                                  std::to_string(inertial.states[st].keyframe_id));
+  struct StateBlocks {
+    std::array<double, 3> v, bg, ba;
+  };
+  std::vector<StateBlocks> states(inertial.states.size());
+  for (size_t s = 0; s < states.size(); ++s) {
+    const BaInertialState& st = inertial.states[s];
+    if (keyframe_index.count(st.keyframe_id) == 0)
+      throw std::invalid_argument("bundle adjustment: inertial state of missing keyframe " +
+                                  std::to_string(st.keyframe_id));
+    Eigen::Map<Eigen::Vector3d>(states[s].v.data()) = st.v_world_mps;
+    Eigen::Map<Eigen::Vector3d>(states[s].bg.data()) = st.bias.gyro_radps;
+    Eigen::Map<Eigen::Vector3d>(states[s].ba.data()) = st.bias.accel_mps2;
+  }
+  auto stateOf = [&](uint64_t keyframe_id, const char* what) {
+    const auto it = state_index.find(keyframe_id);
+    if (it == state_index.end())
+      throw std::invalid_argument(std::string("bundle adjustment: ") + what + " names keyframe " +
+                                  std::to_string(keyframe_id) + " without an inertial state");
+    return it->second;
+  };
+  std::vector<char> state_used(states.size(), 0);
+  for (const BaImuConstraint& c : inertial.constraints) {
+    if (!c.preintegration)
+      throw std::invalid_argument("bundle adjustment: IMU constraint without a preintegration");
+    const size_t si = stateOf(c.keyframe_i, "IMU constraint"), sj = stateOf(c.keyframe_j, "IMU constraint");
+    const size_t ki = keyframe_index.at(c.keyframe_i), kj = keyframe_index.at(c.keyframe_j);
+    ceres_problem.AddResidualBlock(
+        new ImuOnCameraPoses(c.preintegration, inertial.gravity_world_mps2, inertial.T_cam_imu), nullptr,
+        {poses[ki].q.data(), poses[ki].t.data(), states[si].v.data(), states[si].bg.data(),
+         states[si].ba.data(), poses[kj].q.data(), poses[kj].t.data(), states[sj].v.data()});
+    ceres_problem.AddResidualBlock(new BiasRandomWalkFactor(c.preintegration->biasRandomWalkCovariance()),
+                                   nullptr,
+                                   {states[si].bg.data(), states[si].ba.data(), states[sj].bg.data(),
+                                    states[sj].ba.data()});
+    pose_used[ki] = pose_used[kj] = 1;
+    state_used[si] = state_used[sj] = 1;
+    ++summary.imu_factors;
+  }
+  for (const BaBiasPrior& p : inertial.bias_priors) {
+    if (!(p.gyro_sigma_radps > 0.0 && p.accel_sigma_mps2 > 0.0))
+      throw std::invalid_argument("bundle adjustment: bias prior needs positive sigmas");
+    const size_t s = stateOf(p.keyframe_id, "bias prior");
+    if (!state_used[s]) continue;
+    ceres_problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 3, 3>(new BiasPriorResidual(p)), nullptr,
+        states[s].bg.data(), states[s].ba.data());
+  }
+  int free_states = 0;
+  for (size_t s = 0; s < states.size(); ++s) {
+    if (!state_used[s]) continue;
+    ++free_states;
+    if (inertial.states[s].velocity_fixed) ceres_problem.SetParameterBlockConstant(states[s].v.data());
+  }
+
   int free_poses = 0, free_points = 0;
   for (size_t k = 0; k < poses.size(); ++k) {
     if (!pose_used[k]) continue;
@@ -348,14 +504,14 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
   }
 
   bool usable = true;
-  if (free_poses + free_points > 0) {
+  if (free_poses + free_points + free_states > 0) {
     ceres::Solver::Options options;
     options.max_num_iterations = config.max_iterations;
     options.num_threads = 1;
     options.logging_type = ceres::SILENT;
     options.minimizer_progress_to_stdout = false;
     const bool have_sparse = options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
-    if (free_poses == 0) {
+    if (free_poses == 0 && free_states == 0) {
       // Structure only: the normal equations are block diagonal (one 3x3 per point).
       options.linear_solver_type = have_sparse ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
     } else if (free_points == 0) {
@@ -378,6 +534,11 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
         ordering->AddElementToGroup(poses[k].q.data(), 1);
         ordering->AddElementToGroup(poses[k].t.data(), 1);
       }
+      for (size_t st = 0; st < states.size(); ++st) {
+        if (!state_used[st]) continue;
+        for (double* block : {states[st].v.data(), states[st].bg.data(), states[st].ba.data()})
+          ordering->AddElementToGroup(block, 1);
+      }
       options.linear_solver_ordering = ordering;
     }
     AbortCallback abort_callback(abort);
@@ -396,6 +557,13 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
         if (point_used[j] && !pointConstant(j)) {
           problem->points[j].p_world = Eigen::Map<const Eigen::Vector3d>(points[j].data());
         }
+      }
+      for (size_t st = 0; st < states.size(); ++st) {
+        if (!state_used[st]) continue;
+        if (!inertial.states[st].velocity_fixed)
+          inertial.states[st].v_world_mps = Eigen::Map<const Eigen::Vector3d>(states[st].v.data());
+        inertial.states[st].bias.gyro_radps = Eigen::Map<const Eigen::Vector3d>(states[st].bg.data());
+        inertial.states[st].bias.accel_mps2 = Eigen::Map<const Eigen::Vector3d>(states[st].ba.data());
       }
     }
   }

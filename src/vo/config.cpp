@@ -122,6 +122,7 @@ PLANETARY_VO_CONFIG_EQ(PnpConfig, pnpFields)
 PLANETARY_VO_CONFIG_EQ(BundleAdjustmentConfig, bundleAdjustmentFields)
 PLANETARY_VO_CONFIG_EQ(PipelineConfig, pipelineFields)
 PLANETARY_VO_CONFIG_EQ(AltimeterAidingConfig, altimeterFields)
+PLANETARY_VO_CONFIG_EQ(ImuAidingConfig, imuFields)
 PLANETARY_VO_CONFIG_EQ(VoConfig, forEachField)
 #undef PLANETARY_VO_CONFIG_EQ
 

@@ -183,6 +183,26 @@ void altimeterFields(C& c, V& v) {
   v("max_time_offset_s", c.max_time_offset_s, 0.0, 10.0);
 }
 
+template <class C, class V>
+void imuFields(C& c, V& v) {
+  v("enabled", c.enabled);
+  v("gyro_noise_density_radps_per_sqrt_hz", c.gyro_noise_density_radps_per_sqrt_hz, 1e-9, 1.0);
+  v("accel_noise_density_mps2_per_sqrt_hz", c.accel_noise_density_mps2_per_sqrt_hz, 1e-9, 10.0);
+  v("gyro_random_walk_radps2_per_sqrt_hz", c.gyro_random_walk_radps2_per_sqrt_hz, 1e-12, 1.0);
+  v("accel_random_walk_mps3_per_sqrt_hz", c.accel_random_walk_mps3_per_sqrt_hz, 1e-12, 10.0);
+  v("gyro_turn_on_bias_radps", c.gyro_turn_on_bias_radps, 1e-9, 1.0);
+  v("accel_turn_on_bias_mps2", c.accel_turn_on_bias_mps2, 1e-9, 10.0);
+  v("gravity_mps2", c.gravity_mps2, 0.0, 100.0);
+  v("cam_imu_x_m", c.cam_imu_x_m, -100.0, 100.0);
+  v("cam_imu_y_m", c.cam_imu_y_m, -100.0, 100.0);
+  v("cam_imu_z_m", c.cam_imu_z_m, -100.0, 100.0);
+  v("cam_imu_roll_deg", c.cam_imu_roll_deg, -180.0, 180.0);
+  v("cam_imu_pitch_deg", c.cam_imu_pitch_deg, -180.0, 180.0);
+  v("cam_imu_yaw_deg", c.cam_imu_yaw_deg, -180.0, 180.0);
+  v("time_offset_s", c.time_offset_s, -1.0, 1.0);
+  v("max_gap_s", c.max_gap_s, 0.0, 1.0);
+}
+
 /// Walks every section of VoConfig in file order.
 template <class Cfg, class V>
 void forEachField(Cfg& cfg, V& v) {
@@ -204,6 +224,8 @@ void forEachField(Cfg& cfg, V& v) {
   pipelineFields(cfg.pipeline, v);
   v.beginSection("altimeter");
   altimeterFields(cfg.altimeter, v);
+  v.beginSection("imu");
+  imuFields(cfg.imu, v);
 }
 
 }  // namespace planetary_vo::config_detail

@@ -183,6 +183,12 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
   for (const BaPoint& bp : problem.points) {
     if (MapPoint* p = point(bp.id)) p->p_world = bp.p_world;
   }
+  for (const BaInertialState& st : problem.inertial.states) {
+    if (Keyframe* kf = keyframe(st.keyframe_id)) {
+      kf->v_world_mps = st.v_world_mps;
+      kf->imu_bias = st.bias;
+    }
+  }
   std::unordered_set<uint64_t> touched;
   for (const BaObservation& o : outliers) {
     MapPoint* p = point(o.point_id);
@@ -213,8 +219,10 @@ void Map::pointViews(std::vector<MapPointView>* out) const {
 }
 
 void Map::scaleAbout(const Eigen::Vector3d& centre, double s) {
-  for (Keyframe& kf : keyframes_)
+  for (Keyframe& kf : keyframes_) {
     kf.T_world_cam.translation() = centre + s * (kf.T_world_cam.translation() - centre);
+    kf.v_world_mps *= s;
+  }
   for (auto& entry : points_) entry.second.p_world = centre + s * (entry.second.p_world - centre);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -32,8 +33,18 @@ Pose scaledInverse(const Pose& T_c2_c1_unit, double scale) {
 constexpr int kNumFixedBaKeyframes = 2;
 constexpr int kNumFixedBaKeyframesWithRanges = 1;
 constexpr size_t kMinRangeFactorsForScale = 2;
+// ... and the IMU factors whenever there is one: from the oldest keyframe's pose and (held) velocity the IMU
+// predicts the next position, so a second fixed pose would only force the vision error between the two into
+// the biases.
 // Map points that carry the terrain plane of an altimeter range factor in the solve.
 constexpr size_t kRangeSupportPoints = 12;
+// Camera + IMU: the IMU alone carries a state over at most this long (no vision between two keyframes, or
+// from the handed-over state to the first metric keyframe). A tactical accelerometer's turn-on bias
+// (7e-3 m/s^2) moves the position by 3 m in 30 s.
+constexpr double kMaxInertialBridgeS = 30.0;
+// The IMU baseline of a new map is used for its scale when an accelerometer bias of the data sheet's
+// turn-on sigma moves it by less than this fraction.
+constexpr double kMaxInertialScaleError = 0.01;
 
 }  // namespace
 
@@ -57,7 +68,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       pnp_tracker_(config.pnp, config.bundle_adjustment),
       keyframe_policy_(config.keyframe),
       mapper_(config.map),
-      altimeter_(config.altimeter) {
+      altimeter_(config.altimeter),
+      inertial_(config.imu) {
   config_.validate();
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
@@ -81,6 +93,8 @@ void Pipeline::reset() {
   T_world_cam_ = T_world_cam_initial_;
   metric_scale_ = false;
   altimeter_.clear();
+  inertial_.clear();
+  carried_inertial_.reset();
   failed_frames_ = 0;
   scale_confidence_ = 0.0;
   frames_since_keyframe_ = 0;
@@ -107,6 +121,17 @@ void Pipeline::addAltimeter(const AltimeterSample& sample) {
   if (config_.altimeter.enabled) altimeter_.add(sample);
 }
 
+void Pipeline::addImu(const ImuSample& sample) {
+  if (config_.imu.enabled) inertial_.add(sample);
+}
+
+void Pipeline::setInitialState(const Pose& T_world_cam, const Eigen::Vector3d& v_world_mps) {
+  if (!v_world_mps.allFinite())
+    throw std::invalid_argument("Pipeline::setInitialState: non-finite velocity");
+  setInitialPose(T_world_cam);
+  v_initial_world_mps_ = v_world_mps;
+}
+
 void Pipeline::setInitialPose(const Pose& T_world_cam) {
   if (frame_index_ >= 0)
     throw std::logic_error("Pipeline::setInitialPose: call it before the first image (or after reset())");
@@ -115,6 +140,8 @@ void Pipeline::setInitialPose(const Pose& T_world_cam) {
     throw std::invalid_argument("Pipeline::setInitialPose: not a finite rigid pose");
   T_world_cam_initial_ = T_world_cam;
   T_world_cam_ = T_world_cam;
+  initial_pose_given_ = true;
+  v_initial_world_mps_.reset();
 }
 
 void Pipeline::setPriorPlaneNormal(const Eigen::Vector3d& normal_cam) {
@@ -143,6 +170,9 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   }
   result.processed = true;
   timestamp_s_ = timestamp_s;
+  // The handed-over state belongs to the first image.
+  if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_)
+    carried_inertial_ = inertial_.bodyState(timestamp_s, T_world_cam_initial_, *v_initial_world_mps_, {});
 
   // The adjustment submitted at the last keyframe runs while LK tracks this image (LK touches only the
   // tracker), and is applied before the pose is estimated against the map.
@@ -152,6 +182,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
     processUnitStep(&result);
   else
     processMap(&result);
+  fillInertialOutput(&result);
 
   T_world_cam_ = result.T_world_cam;
   state_ = result.state;
@@ -231,6 +262,15 @@ void Pipeline::holdPose(FrameResult* result, const std::string& why) {
 }
 
 Pose Pipeline::predictPose() const {
+  // Camera + IMU: the newest inertial state moved on by the IMU (also before the first map, from the
+  // handed-over state), as long as the map is metric like the IMU.
+  if (config_.pipeline.trajectory_mode == TrajectoryMode::kMap && inertialActive() &&
+      (metric_scale_ || stage_ == PipelineStage::kInitialising)) {
+    const std::optional<NavState> from = newestInertialState();
+    if (from && timestamp_s_ >= from->timestamp_s && timestamp_s_ - from->timestamp_s <= kMaxInertialBridgeS)
+      if (const std::optional<NavState> now = inertial_.propagate(*from, timestamp_s_))
+        return inertial_.cameraPose(*now);
+  }
   if (!last_good_.valid) return T_world_cam_;
   return predictConstantVelocity(last_good_.T_world_cam, last_good_.timestamp_s, map_, timestamp_s_);
 }
@@ -350,6 +390,14 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale_note = ", metric scale from the altimeter: " + std::to_string(fix.measured_range_m) + " m over " +
                  std::to_string(fix.prediction.range) + " baselines (1-sigma " +
                  std::to_string(100.0 * fix.relative_sigma) + " %)";
+  } else if (double imu_scale = std::numeric_limits<double>::quiet_NaN();
+             inertialActive() && (!recovering || metric_scale_) &&
+             std::isfinite(imu_scale = inertialMapScale(init, &scale_note))) {
+    scale = imu_scale;
+    scale_confidence_ = 1.0;
+    metric_scale_ = true;
+    scale_note = ", metric scale from the IMU baseline: " + std::to_string(scale) + " m" +
+                 (fix.valid || !config_.altimeter.enabled ? "" : " (altimeter: " + fix.reason + ")");
   } else if (recovering) {
     const ScaleBridge bridge =
         bridgeScale(map_, reference_.T_world_cam, reference_.timestamp_s, timestamp_s_, init);
@@ -363,6 +411,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
 
   const Pose T_world_ref = reference_.T_world_cam;
   const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
+  if (const std::optional<NavState> carried = newestInertialState()) carried_inertial_ = carried;
   map_.clear();
   const uint64_t kf_ref =
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
@@ -371,6 +420,8 @@ void Pipeline::tryInitialise(FrameResult* result) {
     map_.addPoint(init.track_ids[i], T_world_ref * (scale * init.points_c1[i]),
                   {{kf_ref, init.px1[i]}, {kf_cur, init.px2[i]}});
   }
+  attachInertialState(kf_ref, result);
+  attachInertialState(kf_cur, result);
   remove_ids_.clear();
   for (size_t i = 0; i < match_ids_.size(); ++i)
     if (i < init.motion.inlier_mask.size() && init.motion.inlier_mask[i] == 0)
@@ -485,6 +536,7 @@ void Pipeline::insertKeyframe(FrameResult* result) {
       map_.keyframe(insertion.keyframe_id)->altimeter_range_m = reading->slant_range_m;
     if (!metric_scale_) tryMetricScaleAtKeyframe(result);
   }
+  attachInertialState(insertion.keyframe_id, result);
   result->times.mapping_ms = msSince(start);
   runBundleAdjustment(result);
 }
@@ -574,14 +626,18 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
                                    [&r](const BaKeyframe& k) { return k.id == r.keyframe_id; });
       if (kf != p.keyframes.end() && !kf->fixed) p.ranges.push_back(r);
     }
+    addInertialFactors(&p);
     return p;
   };
-  // Gauge policy: the ranges hold the scale only when at least two free keyframes carry one.
-  const int num_fixed =
-      ranges.size() >= kMinRangeFactorsForScale ? kNumFixedBaKeyframesWithRanges : kNumFixedBaKeyframes;
-  BaProblem problem = makeProblem(num_fixed);
-  if (num_fixed == kNumFixedBaKeyframesWithRanges && problem.ranges.size() < kMinRangeFactorsForScale)
-    problem = makeProblem(kNumFixedBaKeyframes);
+  // Gauge policy: the ranges hold the scale when at least two free keyframes carry one, the IMU factors
+  // (gravity and the accelerometer) whenever there is one; then only the oldest keyframe stays fixed.
+  auto scaleHeld = [](const BaProblem& p) {
+    return p.ranges.size() >= kMinRangeFactorsForScale || !p.inertial.constraints.empty();
+  };
+  const bool may_hold_scale =
+      ranges.size() >= kMinRangeFactorsForScale || (inertialActive() && metric_scale_);
+  BaProblem problem = makeProblem(may_hold_scale ? kNumFixedBaKeyframesWithRanges : kNumFixedBaKeyframes);
+  if (may_hold_scale && !scaleHeld(problem)) problem = makeProblem(kNumFixedBaKeyframes);
   const bool has_free_pose = std::any_of(problem.keyframes.begin(), problem.keyframes.end(),
                                          [](const BaKeyframe& k) { return !k.fixed; });
   if (!has_free_pose || problem.points.empty()) return;
@@ -613,6 +669,135 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
   if (!finished || !finished->second.converged) return;
   map_.applyBaResult(finished->first, finished->second.outliers);
   result->times.ba_ms = msSince(start);
+}
+
+}  // namespace planetary_vo
+
+// ---------------------------------------------------------------------------------------------------------------
+// Camera + IMU.
+
+namespace planetary_vo {
+
+std::optional<NavState> Pipeline::newestInertialState() const {
+  const auto& kfs = map_.keyframes();
+  for (auto it = kfs.rbegin(); it != kfs.rend(); ++it)
+    if (it->has_inertial_state)
+      return inertial_.bodyState(it->timestamp_s, it->T_world_cam, it->v_world_mps, it->imu_bias);
+  return carried_inertial_;
+}
+
+void Pipeline::attachInertialState(uint64_t keyframe_id, FrameResult* result) {
+  if (!inertialActive() || !metric_scale_) return;
+  const auto& kfs = map_.keyframes();
+  const auto at = std::find_if(kfs.begin(), kfs.end(), [&](const Keyframe& k) { return k.id == keyframe_id; });
+  if (at == kfs.end()) return;
+  const Keyframe* previous = at == kfs.begin() ? nullptr : &*(at - 1);
+  Keyframe* kf = map_.keyframe(keyframe_id);
+  std::optional<NavState> from;
+  if (previous != nullptr && previous->has_inertial_state)
+    from = inertial_.bodyState(previous->timestamp_s, previous->T_world_cam, previous->v_world_mps,
+                               previous->imu_bias);
+  else
+    from = carried_inertial_;
+  if (!from || from->timestamp_s > kf->timestamp_s) return;
+  if (kf->timestamp_s - from->timestamp_s > kMaxInertialBridgeS) {
+    result->message += "; IMU: no inertial state within " + std::to_string(kMaxInertialBridgeS) + " s";
+    return;
+  }
+  const std::optional<NavState> state = inertial_.propagate(*from, kf->timestamp_s);
+  if (!state) {
+    result->message += "; IMU not used at this keyframe: " +
+                       inertial_.coverageProblem(from->timestamp_s, kf->timestamp_s);
+    return;
+  }
+  kf->has_inertial_state = true;
+  kf->v_world_mps = state->v_world_mps;
+  kf->imu_bias = from->bias();
+  if (previous != nullptr && previous->has_inertial_state)
+    kf->imu_from_previous = inertial_.preintegrate(previous->timestamp_s, kf->timestamp_s, previous->imu_bias);
+}
+
+double Pipeline::inertialMapScale(const Initialization& init, std::string* why) const {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::optional<NavState> from = newestInertialState();
+  const double t_ref = reference_.timestamp_s, t_cur = timestamp_s_;
+  if (!from) {
+    *why = ", no IMU scale (no inertial state: hand over the initial velocity)";
+    return nan;
+  }
+  if (t_ref < from->timestamp_s || t_cur - from->timestamp_s > kMaxInertialBridgeS) {
+    *why = ", no IMU scale (the inertial state is not within the IMU's reach)";
+    return nan;
+  }
+  const std::optional<NavState> at_ref = inertial_.propagate(*from, t_ref);
+  const std::optional<NavState> at_cur = at_ref ? inertial_.propagate(*at_ref, t_cur) : std::nullopt;
+  if (!at_cur) {
+    *why = ", no IMU scale (" + inertial_.coverageProblem(from->timestamp_s, t_cur) + ")";
+    return nan;
+  }
+  const double baseline_m =
+      (inertial_.cameraPose(*at_cur).translation() - inertial_.cameraPose(*at_ref).translation()).norm();
+  const double unit = init.motion.T_c2_c1_unit.translation().norm();
+  // The baseline error an accelerometer bias of the turn-on sigma causes over the propagation.
+  const double a = t_ref - from->timestamp_s, b = t_cur - from->timestamp_s;
+  const double error_m = 0.5 * config_.imu.accel_turn_on_bias_mps2 * (b * b - a * a);
+  if (!(unit > 0.0) || !(baseline_m > 0.0) || error_m > kMaxInertialScaleError * baseline_m) {
+    *why = ", no IMU scale (baseline " + std::to_string(baseline_m) + " m, bias error up to " +
+           std::to_string(error_m) + " m)";
+    return nan;
+  }
+  return baseline_m / unit;
+}
+
+void Pipeline::addInertialFactors(BaProblem* problem) const {
+  if (!inertialActive() || !metric_scale_) return;
+  BaInertial& inertial = problem->inertial;
+  inertial.gravity_world_mps2 = inertial_.gravityWorld();
+  inertial.T_cam_imu = inertial_.T_cam_imu();
+  const auto& kfs = map_.keyframes();
+  const size_t window = std::min(kfs.size(), static_cast<size_t>(config_.bundle_adjustment.window_keyframes));
+  auto inProblem = [&](uint64_t id) {
+    return std::any_of(problem->keyframes.begin(), problem->keyframes.end(),
+                       [id](const BaKeyframe& k) { return k.id == id; });
+  };
+  const Keyframe* previous = nullptr;  // the keyframe before, when it has a state in the problem
+  for (size_t i = kfs.size() - window; i < kfs.size(); ++i) {
+    const Keyframe& kf = kfs[i];
+    if (!kf.has_inertial_state || !inProblem(kf.id)) {
+      previous = nullptr;
+      continue;
+    }
+    inertial.states.push_back({kf.id, kf.v_world_mps, kf.imu_bias});
+    if (previous != nullptr && kf.imu_from_previous)
+      inertial.constraints.push_back({previous->id, kf.id, kf.imu_from_previous});
+    previous = &kf;
+  }
+  if (inertial.constraints.empty()) {
+    inertial.states.clear();
+    return;
+  }
+  // The oldest state's velocity is held with its fixed pose (both what earlier windows estimated, or what was
+  // handed over); its biases get the data sheet's turn-on sigma about the estimate so far.
+  inertial.states.front().velocity_fixed =
+      std::any_of(problem->keyframes.begin(), problem->keyframes.end(), [&](const BaKeyframe& k) {
+        return k.id == inertial.states.front().keyframe_id && k.fixed;
+      });
+  inertial.bias_priors.push_back({inertial.states.front().keyframe_id, inertial.states.front().bias,
+                                  config_.imu.gyro_turn_on_bias_radps, config_.imu.accel_turn_on_bias_mps2});
+}
+
+void Pipeline::fillInertialOutput(FrameResult* result) const {
+  if (!inertialActive()) return;
+  const std::optional<NavState> from = newestInertialState();
+  if (!from || timestamp_s_ < from->timestamp_s || timestamp_s_ - from->timestamp_s > kMaxInertialBridgeS)
+    return;
+  const std::optional<NavState> now = inertial_.propagate(*from, timestamp_s_);
+  if (!now) return;
+  result->has_velocity = true;
+  result->v_world_mps = now->v_world_mps;
+  result->imu_bias = now->bias();
+  const auto& kfs = map_.keyframes();
+  result->inertial = metric_scale_ && !kfs.empty() && kfs.back().has_inertial_state;
 }
 
 }  // namespace planetary_vo

@@ -8,8 +8,11 @@
 /// Poses are T_cam_world (world -> camera, the form the reprojection residual needs); observations are IDEAL
 /// (undistorted) pixels of a pinhole camera with intrinsics K.
 ///
-/// Factors: one reprojection residual per observation (robust loss of the config), and, for a metric map of
-/// the vision + altimeter mode, one altimeter range residual per BaRangeObservation (the keyframe's measured
+/// Factors: one reprojection residual per observation (robust loss of the config); for a metric map of the
+/// camera + IMU mode, per BaImuConstraint a preintegrated IMU factor and a bias random walk between the two
+/// keyframes' states (velocity, biases; the pose of T_cam_world converted to the IMU body pose inside the
+/// factor), and the bias priors; for a metric map of the vision + altimeter mode, one altimeter range
+/// residual per BaRangeObservation (the keyframe's measured
 /// slant range against the range from its pose to the terrain plane fitted to the map, which moves with its
 /// support points; fusion/altimeter_range.h, Cauchy loss at 2.5 sigma). The range factors make the scale
 /// observable, so the caller may then fix only the oldest keyframe (the gauge policy is the caller's: see
@@ -35,6 +38,7 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -43,6 +47,8 @@
 #include <Eigen/Core>
 
 #include "planetary_vo/fusion/altimeter_range.h"
+#include "planetary_vo/fusion/imu_preintegration.h"
+#include "planetary_vo/fusion/nav_state.h"
 #include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/vo/config.h"
 
@@ -80,12 +86,50 @@ struct BaRangeObservation {
   double sigma_m = 0.0;           ///< > 0: instrument noise and plane uncertainty (altimeterResidualSigmaM)
 };
 
+/// Velocity and IMU biases of a keyframe in the camera + IMU mode (the body = the IMU, T_cam_imu of
+/// BaInertial): free in the solve (unless velocity_fixed), also when the keyframe's pose is fixed.
+struct BaInertialState {
+  uint64_t keyframe_id = 0;
+  Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();  ///< body velocity, world frame
+  ImuBias bias;
+  /// The velocity is held (like the fixed pose of the window's oldest keyframe: what earlier windows
+  /// estimated, or the velocity handed over); the biases stay free.
+  bool velocity_fixed = false;
+};
+
+/// The preintegrated IMU between two keyframes of the problem (i older than j): an ImuFactor and a bias
+/// random-walk factor (fusion/inertial_factors.h) on their poses, velocities and biases.
+struct BaImuConstraint {
+  uint64_t keyframe_i = 0, keyframe_j = 0;
+  std::shared_ptr<const ImuPreintegration> preintegration;
+};
+
+/// A Gaussian prior on the biases of one keyframe (the turn-on bias of the data sheet, or what the earlier
+/// windows estimated).
+struct BaBiasPrior {
+  uint64_t keyframe_id = 0;
+  ImuBias mean;
+  double gyro_sigma_radps = 0.0;   ///< > 0
+  double accel_sigma_mps2 = 0.0;   ///< > 0
+};
+
+/// The inertial part of a window (empty states: vision only). Gravity makes the world's roll and pitch and
+/// the scale observable; only position and yaw remain a gauge freedom.
+struct BaInertial {
+  Eigen::Vector3d gravity_world_mps2 = kLunarGravityWorldMps2;
+  Pose T_cam_imu = Pose::Identity();
+  std::vector<BaInertialState> states;
+  std::vector<BaImuConstraint> constraints;  ///< both keyframes must have a state
+  std::vector<BaBiasPrior> bias_priors;
+};
+
 struct BaProblem {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
   std::vector<BaKeyframe> keyframes;
   std::vector<BaPoint> points;
   std::vector<BaObservation> observations;
   std::vector<BaRangeObservation> ranges;  ///< empty in vision-only mode
+  BaInertial inertial;                     ///< empty in vision-only mode
 };
 
 struct BaSummary {
@@ -95,6 +139,7 @@ struct BaSummary {
   double final_rms_px = 0.0;    ///< and after the adjustment
   double solve_ms = 0.0;        ///< wall time of the whole call (set-up, solve, evaluation)
   int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
+  int imu_factors = 0;          ///< preintegrated IMU factors that took part
   /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops
   /// them. The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera
   /// are listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.

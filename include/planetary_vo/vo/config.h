@@ -8,7 +8,7 @@
 /// TrackerConfig&)`); no stage sees YAML, rosparam or the whole VoConfig.
 ///
 /// YAML layout: one map per section, named as the VoConfig members (`detector:`, `tracker:`, `motion:`,
-/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`), each holding the keys named
+/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`, `imu:`), each holding the keys named
 /// as the struct members. Loading lives in config_yaml.h.
 
 #include <stdexcept>
@@ -175,6 +175,34 @@ struct AltimeterAidingConfig {
   double max_time_offset_s = 0.06;
 };
 
+/// Inertial aiding (issue 10): the IMU between keyframes as preintegrated factors in the windowed bundle
+/// adjustment (fusion/imu_preintegration.h, inertial_factors.h), with a velocity and IMU biases per keyframe.
+/// Off by default: vision only. Needs a gravity-aligned, metric world: the initial state handed over
+/// (Pipeline::setInitialState) and a metric map (from the altimeter, or from the IMU over the initialisation
+/// baseline when the initial velocity is given). Map mode only.
+struct ImuAidingConfig {
+  bool enabled = false;  ///< use the samples given to Pipeline::addImu()
+  /// Noise densities of the instrument (defaults: the benchmark's tactical-grade flight IMU, sensors.yaml).
+  double gyro_noise_density_radps_per_sqrt_hz = 4.36332313e-05;
+  double accel_noise_density_mps2_per_sqrt_hz = 0.001;
+  double gyro_random_walk_radps2_per_sqrt_hz = 2.46126856e-08;
+  double accel_random_walk_mps3_per_sqrt_hz = 1.550567511e-05;
+  /// 1-sigma of the turn-on biases (the prior of the bias estimate; sensors.yaml *_turn_on_bias_*).
+  double gyro_turn_on_bias_radps = 1.939254724e-05;
+  double accel_turn_on_bias_mps2 = 0.0073549875;
+  /// Gravity magnitude; the world frame of the handed-over state has z up (Lunar: 1.62 m/s^2).
+  double gravity_mps2 = 1.62;
+  /// IMU pose in the camera optical frame (T_cam_imu): translation and roll/pitch/yaw (x, y, z axes, applied
+  /// z-y-x); default co-located and aligned, as in the Lunar datasets.
+  double cam_imu_x_m = 0.0, cam_imu_y_m = 0.0, cam_imu_z_m = 0.0;
+  double cam_imu_roll_deg = 0.0, cam_imu_pitch_deg = 0.0, cam_imu_yaw_deg = 0.0;
+  /// IMU clock minus camera clock: the sample stamped t_imu was taken at camera time t_imu - time_offset_s.
+  double time_offset_s = 0.0;
+  /// Gaps in the IMU stream up to this long are bridged by holding the last sample; a longer gap breaks the
+  /// inertial chain (the keyframes on either side are not tied by an IMU factor; the status says so).
+  double max_gap_s = 0.05;
+};
+
 /// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).
 struct VoConfig {
   DetectorConfig detector;
@@ -186,6 +214,7 @@ struct VoConfig {
   BundleAdjustmentConfig bundle_adjustment;
   PipelineConfig pipeline;
   AltimeterAidingConfig altimeter;
+  ImuAidingConfig imu;
 
   /// Every out-of-range value and every inconsistent combination, one line each naming `section.key`.
   std::vector<std::string> validationErrors() const;
@@ -204,6 +233,7 @@ bool operator==(const PnpConfig& a, const PnpConfig& b);
 bool operator==(const BundleAdjustmentConfig& a, const BundleAdjustmentConfig& b);
 bool operator==(const PipelineConfig& a, const PipelineConfig& b);
 bool operator==(const AltimeterAidingConfig& a, const AltimeterAidingConfig& b);
+bool operator==(const ImuAidingConfig& a, const ImuAidingConfig& b);
 bool operator==(const VoConfig& a, const VoConfig& b);
 inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b); }
 

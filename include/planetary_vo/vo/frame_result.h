@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "planetary_vo/fusion/nav_state.h"
 #include "planetary_vo/geometry/pose.h"
 
 namespace planetary_vo {
@@ -75,6 +76,14 @@ struct FrameResult {
   /// vision-only mode, whose unit is the first two-view baseline.
   bool metric_scale = false;
 
+  /// Camera + IMU mode: v_world_mps (the IMU body's velocity, world frame, m/s) and imu_bias are the newest
+  /// keyframe's estimate moved on to this frame's time by the IMU (has_velocity); inertial says that IMU
+  /// factors hold the current map (false while the IMU cannot be used: no handed-over state, no metric map,
+  /// or a gap; the message says why).
+  bool has_velocity = false;
+  Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
+  ImuBias imu_bias;
+  bool inertial = false;
   StageTimesMs times;
   /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.
   std::string message;

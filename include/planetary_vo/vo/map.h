@@ -11,11 +11,14 @@
 #include <cstdint>
 #include <deque>
 #include <limits>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "planetary_vo/fusion/imu_preintegration.h"
+#include "planetary_vo/fusion/nav_state.h"
 #include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/vo/bundle_adjuster.h"
 #include "planetary_vo/vo/config.h"
@@ -32,6 +35,12 @@ struct Keyframe {
   std::unordered_map<uint64_t, Eigen::Vector2d> px_by_track;
   /// The altimeter's slant range at the keyframe's time (vision + altimeter mode), NaN when there was none.
   double altimeter_range_m = std::numeric_limits<double>::quiet_NaN();
+  /// Camera + IMU mode: the IMU body's velocity (world) and biases at the keyframe (has_inertial_state), and
+  /// the IMU preintegrated from the previous keyframe of the map (nullptr: none, e.g. across an IMU gap).
+  bool has_inertial_state = false;
+  Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
+  ImuBias imu_bias;
+  std::shared_ptr<const ImuPreintegration> imu_from_previous;
 };
 
 struct MapObservation {
@@ -89,7 +98,7 @@ class Map {
   int cull(const MapConfig& config);
 
   /// Scales the map about `centre` (world): every keyframe position and point p becomes centre + s (p -
-  /// centre); attitudes are unchanged. A change of the map's unit, e.g. to metres once the altimeter fixed
+  /// centre), velocities s v; attitudes are unchanged. A change of the map's unit, e.g. to metres once the altimeter fixed
   /// it.
   void scaleAbout(const Eigen::Vector3d& centre, double s);
 
@@ -98,7 +107,7 @@ class Map {
   /// window that observe the points enter as fixed too.
   BaProblem makeBaProblem(int window_keyframes, int num_fixed_oldest, double fx, double fy, double cx,
                           double cy) const;
-  /// Writes optimised poses and points back (ids that no longer exist are skipped) and removes the outlier
+  /// Writes optimised poses, points and inertial states back (ids that no longer exist are skipped) and removes the outlier
   /// observations; points left with fewer than 2 observations are removed. Returns the points removed.
   int applyBaResult(const BaProblem& problem, const std::vector<BaObservation>& outliers);
 

@@ -32,6 +32,8 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -43,6 +45,7 @@
 #include "planetary_vo/vo/bundle_adjuster.h"
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/frame_result.h"
+#include "planetary_vo/vo/inertial_aiding.h"
 #include "planetary_vo/vo/initializer.h"
 #include "planetary_vo/vo/keyframe_policy.h"
 #include "planetary_vo/vo/klt_tracker.h"
@@ -86,9 +89,19 @@ class Pipeline {
   /// last reading (the state is unchanged).
   void addAltimeter(const AltimeterSample& sample);
 
+  /// An IMU sample (camera + IMU mode, config.imu.enabled; ignored otherwise), stamped on the IMU clock.
+  /// Give samples in stamp order, up to (at least) the time of the image they precede.
+  /// @throws std::invalid_argument for a non-finite stamp or value, or a stamp not after the last sample
+  /// (the state is unchanged).
+  void addImu(const ImuSample& sample);
+
   /// The pose of the camera at the first image, as guidance hands it over (e.g. in the landing-site frame):
   /// the trajectory starts there instead of at the origin. Call before the first image (or after reset()).
+  /// The world frame is then taken as gravity-aligned (z up), which the camera + IMU mode needs.
   void setInitialPose(const Pose& T_world_cam);
+  /// setInitialPose() plus the velocity of the IMU body at the first image (world frame, m/s): with the IMU,
+  /// the first map is metric from the IMU alone (its baseline propagated from this state).
+  void setInitialState(const Pose& T_world_cam, const Eigen::Vector3d& v_world_mps);
 
   /// Forgets tracks, map, trajectory and buffered readings: the next frame starts a new trajectory at the
   /// initial pose (the origin unless setInitialPose() was called).
@@ -147,6 +160,20 @@ class Pipeline {
   /// Vision + altimeter, metric map: the altimeter ranges of the BA window's keyframes (but the oldest)
   /// against planes fitted to the current map.
   std::vector<BaRangeObservation> altimeterRanges() const;
+  /// Camera + IMU mode usable: enabled and a gravity-aligned world (initial pose handed over).
+  bool inertialActive() const { return config_.imu.enabled && initial_pose_given_; }
+  /// The newest keyframe's inertial state (body), else the state handed over / carried from an older map.
+  std::optional<NavState> newestInertialState() const;
+  /// Gives a new (metric) keyframe its velocity and biases (propagated by the IMU from the previous
+  /// keyframe, or from newestInertialState()) and the preintegration from the previous keyframe.
+  void attachInertialState(uint64_t keyframe_id, FrameResult* result);
+  /// Metres per unit of a new two-view map from the IMU baseline between the reference and the current
+  /// image (propagated from newestInertialState()), or NaN with `why`.
+  double inertialMapScale(const Initialization& init, std::string* why) const;
+  /// Adds the window's inertial states, IMU factors and bias prior to `problem`.
+  void addInertialFactors(BaProblem* problem) const;
+  /// Velocity and biases of this frame (camera + IMU mode).
+  void fillInertialOutput(FrameResult* result) const;
 
   VoConfig config_;
   PinholeCamera camera_;
@@ -158,6 +185,7 @@ class Pipeline {
   Mapper mapper_;
   Map map_;
   AltimeterAiding altimeter_;
+  InertialAiding inertial_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
 
   // Chain state.
@@ -167,6 +195,9 @@ class Pipeline {
   TrackingState state_ = TrackingState::kInitialising;  // output state of the last processed frame
   Pose T_world_cam_ = Pose::Identity();                 // last output pose
   Pose T_world_cam_initial_ = Pose::Identity();         // where the trajectory starts (setInitialPose)
+  bool initial_pose_given_ = false;                     // the world is the handed-over, gravity-aligned one
+  std::optional<Eigen::Vector3d> v_initial_world_mps_;  // handed-over velocity at the first image
+  std::optional<NavState> carried_inertial_;            // inertial state before / between maps
   bool metric_scale_ = false;                           // map and trajectory in metres (vision + altimeter)
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;

@@ -6,10 +6,12 @@
 ///          [--initial-state-from-groundtruth]
 ///
 /// With `altimeter.enabled` in the configuration the dataset's altimeter.txt is given to the pipeline, each
-/// reading before the first image at or after its stamp (as a live driver would deliver it). With
-/// --initial-state-from-groundtruth the pipeline is handed the first ground-truth pose (as guidance hands
-/// over the initial state) and nothing else from the ground truth, so the trajectory is written in the
-/// dataset's world frame.
+/// reading before the first image at or after its stamp (as a live driver would deliver it); likewise
+/// imu.txt with `imu.enabled`. With --initial-state-from-groundtruth the pipeline is handed the first
+/// ground-truth pose and, when the dataset has groundtruth_state.txt, the velocity at the first image (as
+/// guidance hands over the initial state), and nothing else from the ground truth, so the trajectory is
+/// written in the dataset's world frame. --output-velocity writes the estimated velocity of every frame
+/// that has one (camera + IMU mode).
 ///
 /// Writes a TUM line (T_world_cam) for every processed frame that has a pose (tracking, recovered, or lost =
 /// held pose); frames before the initialisation have none. Prints per-stage time (median, p99), peak memory
@@ -20,6 +22,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -32,6 +35,7 @@
 #include <vector>
 
 #include "planetary_vo/dataset/dataset.h"
+#include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/vo/config_yaml.h"
 #include "planetary_vo/vo/pipeline.h"
@@ -48,6 +52,7 @@ struct Options {
   std::string frame_log_path;
   bool quiet = false;
   bool initial_state_from_groundtruth = false;
+  std::string velocity_path;
 };
 
 void usage(std::ostream& out) {
@@ -60,6 +65,8 @@ void usage(std::ostream& out) {
          "  --frame-log FILE  one line per processed frame: state, counts, model, keyframe, time and the\n"
          "                    pipeline's message (why a frame got no pose, why it became a keyframe)\n"
          "  --quiet           no progress and no summary\n"
+         "  --output-velocity FILE  t vx vy vz [m/s, world] and the IMU bias estimates of every frame\n"
+         "                    with a velocity (camera + IMU mode)\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -95,6 +102,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       }
     } else if (arg == "--frame-log") {
       if (!value(&options->frame_log_path)) return false;
+    } else if (arg == "--output-velocity") {
+      if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-state-from-groundtruth") {
       options->initial_state_from_groundtruth = true;
     } else if (arg == "--quiet") {
@@ -145,13 +154,37 @@ int main(int argc, char** argv) {
     if (options.initial_state_from_groundtruth) {
       if (!dataset.hasGroundTruth())
         throw std::runtime_error("--initial-state-from-groundtruth: the dataset has no ground truth");
-      pipeline.setInitialPose(dataset.groundTruth().front().T_world_cam);
+      const StampedPose& first = dataset.groundTruth().front();
+      const std::string state_path = dataset.directory() + "/groundtruth_state.txt";
+      std::vector<GroundTruthState> states;
+      if (std::ifstream(state_path).good()) states = readGroundTruthStates(state_path);
+      // The state at the first image: the guidance handover (pose, velocity), nothing else.
+      const auto at_first =
+          std::find_if(states.begin(), states.end(), [&first](const GroundTruthState& s) {
+            return std::abs(s.timestamp_s - first.timestamp_s) < 1e-6;
+          });
+      if (at_first != states.end())
+        pipeline.setInitialState(first.T_world_cam, at_first->velocity_world_mps);
+      else
+        pipeline.setInitialPose(first.T_world_cam);
+    }
+    const std::vector<ImuSample>& imu = dataset.imu();
+    if (config.imu.enabled && imu.empty())
+      throw std::runtime_error("imu.enabled: the dataset has no IMU samples (imu.txt)");
+    size_t next_imu = 0;
+    std::ofstream velocity_out;
+    if (!options.velocity_path.empty()) {
+      velocity_out.open(options.velocity_path);
+      if (!velocity_out) throw std::runtime_error("cannot write " + options.velocity_path);
+      velocity_out << "# timestamp[s] vx vy vz[m/s] (IMU body, world frame) bgx bgy bgz[rad/s] bax bay "
+                      "baz[m/s^2] (IMU bias estimates)\n";
     }
     const std::vector<AltimeterSample>& altimeter = dataset.altimeter();
     if (config.altimeter.enabled && altimeter.empty())
       throw std::runtime_error("altimeter.enabled: the dataset has no altimeter readings (altimeter.txt)");
     size_t next_altimeter = 0;
     int metric_from_frame = -1;
+    int inertial_frames = 0;
     const size_t num_frames = options.max_frames > 0
                                   ? std::min(dataset.size(), static_cast<size_t>(options.max_frames))
                                   : dataset.size();
@@ -176,6 +209,8 @@ int main(int argc, char** argv) {
       while (config.altimeter.enabled && next_altimeter < altimeter.size() &&
              altimeter[next_altimeter].timestamp_s <= dataset.timestamp(i))
         pipeline.addAltimeter(altimeter[next_altimeter++]);
+      while (config.imu.enabled && next_imu < imu.size() && imu[next_imu].timestamp_s <= dataset.timestamp(i))
+        pipeline.addImu(imu[next_imu++]);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
       if (r.metric_scale && metric_from_frame < 0) metric_from_frame = static_cast<int>(r.frame_index);
       if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
@@ -196,6 +231,13 @@ int main(int argc, char** argv) {
                   << toString(r.motion) << ' ' << std::setprecision(2) << r.times.total_ms << ' '
                   << (r.message.empty() ? "-" : r.message) << '\n';
       if (r.state != TrackingState::kInitialising) trajectory.push_back({r.timestamp_s, r.T_world_cam});
+      if (velocity_out.is_open() && r.has_velocity && r.state != TrackingState::kInitialising)
+        velocity_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::setprecision(9) << ' '
+                     << r.v_world_mps.x() << ' ' << r.v_world_mps.y() << ' ' << r.v_world_mps.z() << ' '
+                     << r.imu_bias.gyro_radps.x() << ' ' << r.imu_bias.gyro_radps.y() << ' '
+                     << r.imu_bias.gyro_radps.z() << ' ' << r.imu_bias.accel_mps2.x() << ' '
+                     << r.imu_bias.accel_mps2.y() << ' ' << r.imu_bias.accel_mps2.z() << '\n';
+      if (r.inertial) ++inertial_frames;
       if (progress) {
         std::fprintf(stderr, "\r%zu/%zu  %-12s %4d tracked %4d inliers %5d points %5.1f ms", i + 1,
                      num_frames, toString(r.state), r.num_tracked, r.num_inliers, r.num_map_points,
@@ -225,12 +267,14 @@ int main(int argc, char** argv) {
                     quantile(*stage.second, 0.99));
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
-      if (config.altimeter.enabled) {
+      if (config.altimeter.enabled || config.imu.enabled) {
         if (metric_from_frame >= 0)
-          std::printf("scale: metres from frame %d on (altimeter)\n", metric_from_frame);
+          std::printf("scale: metres from frame %d on\n", metric_from_frame);
         else
-          std::printf("scale: never metric (no usable altimeter fix; see the frame log)\n");
+          std::printf("scale: never metric (no altimeter fix, no IMU baseline; see the frame log)\n");
       }
+      if (config.imu.enabled)
+        std::printf("imu: %d of %d processed frames on an IMU-constrained map\n", inertial_frames, processed);
       std::printf(
           "peak memory: %.1f MB; resident %.1f MB after 10 %% of the frames, %.1f MB at the end; at most "
           "%d map points\n",

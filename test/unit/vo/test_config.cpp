@@ -132,6 +132,23 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_TRUE(c.altimeter.mounting.origin_body_m.isApprox(Eigen::Vector3d(0.1, -0.2, 0.3)));
   EXPECT_TRUE(c.altimeter.mounting.boresight_body.isApprox(Eigen::Vector3d(0.6, 0.48, 0.64)));
   EXPECT_DOUBLE_EQ(c.altimeter.max_time_offset_s, 0.1);
+
+  EXPECT_TRUE(c.imu.enabled);
+  EXPECT_DOUBLE_EQ(c.imu.gyro_noise_density_radps_per_sqrt_hz, 1.0e-04);
+  EXPECT_DOUBLE_EQ(c.imu.accel_noise_density_mps2_per_sqrt_hz, 0.002);
+  EXPECT_DOUBLE_EQ(c.imu.gyro_random_walk_radps2_per_sqrt_hz, 3.0e-08);
+  EXPECT_DOUBLE_EQ(c.imu.accel_random_walk_mps3_per_sqrt_hz, 2.0e-05);
+  EXPECT_DOUBLE_EQ(c.imu.gyro_turn_on_bias_radps, 5.0e-05);
+  EXPECT_DOUBLE_EQ(c.imu.accel_turn_on_bias_mps2, 0.01);
+  EXPECT_DOUBLE_EQ(c.imu.gravity_mps2, 3.71);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_x_m, 0.05);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_y_m, -0.1);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_z_m, 0.2);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_roll_deg, 1.0);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_pitch_deg, -2.0);
+  EXPECT_DOUBLE_EQ(c.imu.cam_imu_yaw_deg, 90.0);
+  EXPECT_DOUBLE_EQ(c.imu.time_offset_s, 0.002);
+  EXPECT_DOUBLE_EQ(c.imu.max_gap_s, 0.1);
 }
 
 // A +z (nadir) prior by default picked the wrong homography decomposition at frame 1 of the KITTI
@@ -192,6 +209,12 @@ TEST(VoConfig, EachSectionTakesPartInEquality) {
   c = VoConfig();
   c.altimeter.max_time_offset_s = 0.07;
   EXPECT_FALSE(c == defaults) << "altimeter, last key";
+  c = VoConfig();
+  c.imu = fixture.imu;
+  EXPECT_FALSE(c == defaults) << "imu";
+  c = VoConfig();
+  c.imu.max_gap_s = 0.07;
+  EXPECT_FALSE(c == defaults) << "imu, last key";
   // The last key of a section, in case a walker stops early.
   c = VoConfig();
   c.detector.compute_descriptors = true;
