@@ -32,4 +32,16 @@ const char* toString(MotionEstimate motion) {
   return "unknown";
 }
 
+const char* toString(ScaleSource source) {
+  switch (source) {
+    case ScaleSource::kNone:
+      return "none";
+    case ScaleSource::kAltimeter:
+      return "altimeter";
+    case ScaleSource::kImu:
+      return "imu";
+  }
+  return "unknown";
+}
+
 }  // namespace planetary_vo

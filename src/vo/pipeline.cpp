@@ -92,6 +92,8 @@ void Pipeline::reset() {
   state_ = TrackingState::kInitialising;
   T_world_cam_ = T_world_cam_initial_;
   metric_scale_ = false;
+  scale_source_ = ScaleSource::kNone;
+  last_nav_state_.reset();
   altimeter_.clear();
   inertial_.clear();
   carried_inertial_.reset();
@@ -188,6 +190,11 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   state_ = result.state;
   result.scale_confidence = scale_confidence_;
   result.metric_scale = metric_scale_;
+  result.scale_source = scale_source_;
+  if (result.has_velocity)
+    last_nav_state_ = inertial_.bodyState(timestamp_s, result.T_world_cam, result.v_world_mps, result.imu_bias);
+  else
+    last_nav_state_.reset();
   result.num_map_points = static_cast<int>(map_.numPoints());
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
   result.times.total_ms = msSince(start);
@@ -387,6 +394,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale = fix.metres_per_map_unit;
     scale_confidence_ = 1.0;
     metric_scale_ = true;
+    scale_source_ = ScaleSource::kAltimeter;
     scale_note = ", metric scale from the altimeter: " + std::to_string(fix.measured_range_m) + " m over " +
                  std::to_string(fix.prediction.range) + " baselines (1-sigma " +
                  std::to_string(100.0 * fix.relative_sigma) + " %)";
@@ -396,6 +404,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale = imu_scale;
     scale_confidence_ = 1.0;
     metric_scale_ = true;
+    scale_source_ = ScaleSource::kImu;
     scale_note = ", metric scale from the IMU baseline: " + std::to_string(scale) + " m" +
                  (fix.valid || !config_.altimeter.enabled ? "" : " (altimeter: " + fix.reason + ")");
   } else if (recovering) {
@@ -564,6 +573,7 @@ void Pipeline::tryMetricScaleAtKeyframe(FrameResult* result) {
   last_good_.T_world_cam = scaled(last_good_.T_world_cam);
   if (reference_.valid) reference_.T_world_cam = scaled(reference_.T_world_cam);
   metric_scale_ = true;
+  scale_source_ = ScaleSource::kAltimeter;
   result->message += "; metric scale from the altimeter: x" + std::to_string(s) + " (1-sigma " +
                      std::to_string(100.0 * fix.relative_sigma) + " %)";
 }
@@ -677,6 +687,11 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
 // Camera + IMU.
 
 namespace planetary_vo {
+
+std::optional<NavState> Pipeline::navStateAt(double t_s) const {
+  if (!last_nav_state_ || t_s < last_nav_state_->timestamp_s) return std::nullopt;
+  return inertial_.propagate(*last_nav_state_, t_s);
+}
 
 std::optional<NavState> Pipeline::newestInertialState() const {
   const auto& kfs = map_.keyframes();

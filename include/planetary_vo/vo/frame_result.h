@@ -37,6 +37,15 @@ enum class MotionEstimate : uint8_t {
 /// "none", "fundamental", "essential", "homography", "pnp".
 const char* toString(MotionEstimate motion);
 
+/// What made the map's positions metres (FrameResult::scale_source).
+enum class ScaleSource : uint8_t {
+  kNone = 0,       ///< not metric: vision only, the unit is the first two-view baseline
+  kAltimeter = 1,  ///< the altimeter's range against the range the map predicts
+  kImu = 2,        ///< the IMU baseline of the first map, propagated from the handed-over state
+};
+/// "none", "altimeter", "imu".
+const char* toString(ScaleSource source);
+
 /// Wall-clock time spent per stage on this frame, in milliseconds.
 struct StageTimesMs {
   double tracking_ms = 0.0;  ///< KLT tracking + replenishment detection + undistortion
@@ -80,10 +89,16 @@ struct FrameResult {
   /// keyframe's estimate moved on to this frame's time by the IMU (has_velocity); inertial says that IMU
   /// factors hold the current map (false while the IMU cannot be used: no handed-over state, no metric map,
   /// or a gap; the message says why).
+  ScaleSource scale_source = ScaleSource::kNone;
   bool has_velocity = false;
   Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
   ImuBias imu_bias;
   bool inertial = false;
+  /// Camera + IMU mode (has_covariance): covariance of the navigation error [position (world, m), attitude
+  /// (rotation vector of the world-frame error, rad), velocity (world, m/s)], 9x9; see
+  /// docs/fusion/README.md for how it is obtained and what it does not contain.
+  bool has_covariance = false;
+  Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
   StageTimesMs times;
   /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.
   std::string message;

@@ -103,6 +103,13 @@ class Pipeline {
   /// the first map is metric from the IMU alone (its baseline propagated from this state).
   void setInitialState(const Pose& T_world_cam, const Eigen::Vector3d& v_world_mps);
 
+  /// Camera + IMU mode: the navigation state (IMU body pose, velocity, biases) of the last processed frame
+  /// moved on to t_s by the IMU samples given so far: the low-latency output between images. nullopt when
+  /// there is no inertial estimate, t_s is before the last frame, or the IMU does not cover the span.
+  std::optional<NavState> navStateAt(double t_s) const;
+  /// T_cam_imu of the configuration (camera pose = body pose * T_cam_imu^-1).
+  const Pose& T_cam_imu() const { return inertial_.T_cam_imu(); }
+
   /// Forgets tracks, map, trajectory and buffered readings: the next frame starts a new trajectory at the
   /// initial pose (the origin unless setInitialPose() was called).
   void reset();
@@ -199,6 +206,8 @@ class Pipeline {
   std::optional<Eigen::Vector3d> v_initial_world_mps_;  // handed-over velocity at the first image
   std::optional<NavState> carried_inertial_;            // inertial state before / between maps
   bool metric_scale_ = false;                           // map and trajectory in metres (vision + altimeter)
+  ScaleSource scale_source_ = ScaleSource::kNone;       // what made them metres
+  std::optional<NavState> last_nav_state_;              // inertial state of the last processed frame
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
   int frames_since_keyframe_ = 0;
