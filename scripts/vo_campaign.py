@@ -258,6 +258,23 @@ def git_describe():
 # ------------------------------------------------------------------------------------------------------------
 # Plan
 # ------------------------------------------------------------------------------------------------------------
+def is_metric_config(path):
+    """True when the configuration enables the IMU or the altimeter (its output is then metric in the handed-over
+    world frame): such runs are handed the first true state with the run's initial state error and scored
+    without any alignment."""
+    section = None
+    with open(path) as f:
+        for line in f:
+            stripped = line.split("#", 1)[0].rstrip()
+            if not stripped:
+                continue
+            if not line[0].isspace():
+                section = stripped.rstrip(":").strip()
+            elif section in ("imu", "altimeter") and re.fullmatch(r"\s+enabled:\s*true", stripped):
+                return True
+    return False
+
+
 def resolve_configs(text):
     configs = []
     for item in [c.strip() for c in text.split(",") if c.strip()]:
@@ -271,7 +288,7 @@ def resolve_configs(text):
             die(f"configuration {item}: {path} not found", 2)
         if not re.fullmatch(r"[A-Za-z0-9_.-]+", name) or name in [c["name"] for c in configs]:
             die(f"configuration name '{name}' is not usable as a folder name or given twice", 2)
-        configs.append({"name": name, "path": path})
+        configs.append({"name": name, "path": path, "metric": is_metric_config(path)})
     if not configs:
         die("--configs names no configuration", 2)
     return configs
@@ -355,8 +372,21 @@ def build_plan(args, out_dir, bin_dir):
                 "eval_sim3": [tools["vo_eval"], "--gt", gt, "--est", traj, "--align", "sim3", "--json",
                               os.path.join(cdir, "eval_sim3.json")],
             }
-            if first_pose:
-                pe, ae = p["initial_position_error_m"], p["initial_attitude_error_deg"]
+            pe, ae = p["initial_position_error_m"], p["initial_attitude_error_deg"]
+            if c.get("metric"):
+                # Metric navigation (IMU / altimeter): handed the first true pose and velocity with the run's
+                # initial state error, scored as guidance reads it (no alignment), with its own velocity and
+                # covariance.
+                velocity, covariance = os.path.join(cdir, "velocity.txt"), os.path.join(cdir, "covariance.txt")
+                cmds["vo_run"] += ["--initial-state-from-groundtruth",
+                                   "--initial-error-m", ",".join(f"{v:g}" for v in pe),
+                                   "--initial-error-deg", ",".join(f"{v:g}" for v in ae),
+                                   "--output-velocity", velocity, "--output-covariance", covariance]
+                cmds["eval_first"] = [
+                    tools["vo_eval"], "--gt", dataset, "--est", traj, "--align", "none",
+                    "--est-velocity", velocity, "--est-cov", covariance,
+                    "--json", os.path.join(cdir, "eval_first.json")]
+            elif first_pose:
                 cmds["eval_first"] = [
                     tools["vo_eval"], "--gt", gt, "--est", traj, "--align", "first",
                     "--first-scale-window", f"{args.first_scale_window:g}",

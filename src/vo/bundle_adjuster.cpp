@@ -20,8 +20,11 @@
 #include <utility>
 
 #include <ceres/ceres.h>
+#include <ceres/covariance.h>
 #include <ceres/jet.h>
+#include <ceres/rotation.h>
 #include <ceres/manifold.h>
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 #include "planetary_vo/fusion/inertial_factors.h"
@@ -205,6 +208,40 @@ struct BiasPriorResidual {
     return true;
   }
   BaBiasPrior prior;
+};
+
+/// Prior on the pose of a camera pose block and a velocity: e = [p_world_cam - p, Log(R_world_cam R^T),
+/// v - v_prior] whitened by the inverse Cholesky factor of its covariance (the order of BaInertialState).
+struct CameraStatePrior {
+  CameraStatePrior(const Pose& T_world_cam, const Eigen::Vector3d& v, const Eigen::Matrix<double, 9, 9>& cov)
+      : p_prior(T_world_cam.translation()),
+        q_prior(Eigen::Quaterniond(T_world_cam.linear()).normalized()),
+        v_prior(v) {
+    whitening = cov.llt().matrixL().solve(Eigen::Matrix<double, 9, 9>::Identity());
+  }
+  template <typename T>
+  bool operator()(const T* q_cam_world, const T* t_cam_world, const T* v, T* residual) const {
+    const Eigen::Quaternion<T> q_world_cam =
+        Eigen::Map<const Eigen::Quaternion<T>>(q_cam_world).normalized().conjugate();
+    const Eigen::Matrix<T, 3, 1> p = -(q_world_cam * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t_cam_world));
+    const Eigen::Quaternion<T> dq = q_world_cam * q_prior.cast<T>().conjugate();
+    const T wxyz[4] = {dq.w(), dq.x(), dq.y(), dq.z()};
+    T angle_axis[3];
+    ceres::QuaternionToAngleAxis(wxyz, angle_axis);
+    Eigen::Matrix<T, 9, 1> e;
+    for (int k = 0; k < 3; ++k) {
+      e[k] = p[k] - T(p_prior[k]);
+      e[3 + k] = angle_axis[k];
+      e[6 + k] = v[k] - T(v_prior[k]);
+    }
+    Eigen::Map<Eigen::Matrix<T, 9, 1>> r(residual);
+    r = whitening.cast<T>() * e;
+    return true;
+  }
+  Eigen::Vector3d p_prior;
+  Eigen::Quaterniond q_prior;
+  Eigen::Vector3d v_prior;
+  Eigen::Matrix<double, 9, 9> whitening;
 };
 
 /// Stops the solve at the next iteration once the flag is raised (AsyncBundleAdjuster's destructor).
@@ -560,6 +597,7 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
       }
       for (size_t st = 0; st < states.size(); ++st) {
         if (!state_used[st]) continue;
+        inertial.states[st].has_covariance = false;
         if (!inertial.states[st].velocity_fixed)
           inertial.states[st].v_world_mps = Eigen::Map<const Eigen::Vector3d>(states[st].v.data());
         inertial.states[st].bias.gyro_radps = Eigen::Map<const Eigen::Vector3d>(states[st].bg.data());
@@ -568,6 +606,59 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
     }
   }
   summary.converged = usable;
+  if (usable && inertial.compute_covariance && free_states > 0 &&
+      problem->keyframes[keyframe_index.at(inertial.states.front().keyframe_id)].fixed) {
+    const auto covariance_start = std::chrono::steady_clock::now();
+    // Release the oldest state's held pose and velocity under the anchor prior, then read the marginal
+    // covariance of every state's pose and velocity in the tangent space.
+    const size_t s0 = 0;
+    const size_t k0 = keyframe_index.at(inertial.states[s0].keyframe_id);
+    ceres_problem.SetParameterBlockVariable(poses[k0].q.data());
+    ceres_problem.SetParameterBlockVariable(poses[k0].t.data());
+    ceres_problem.SetParameterBlockVariable(states[s0].v.data());
+    ceres_problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<CameraStatePrior, 9, 4, 3, 3>(new CameraStatePrior(
+            problem->keyframes[k0].T_cam_world.inverse(), inertial.states[s0].v_world_mps,
+            inertial.anchor_covariance)),
+        nullptr, poses[k0].q.data(), poses[k0].t.data(), states[s0].v.data());
+    std::vector<std::pair<const double*, const double*>> blocks;
+    std::vector<size_t> with_covariance;
+    for (size_t st = 0; st < states.size(); ++st) {
+      if (!state_used[st]) continue;
+      const size_t k = keyframe_index.at(inertial.states[st].keyframe_id);
+      if (problem->keyframes[k].fixed && st != s0) continue;
+      const double* b[3] = {poses[k].q.data(), poses[k].t.data(), states[st].v.data()};
+      for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j) blocks.emplace_back(b[i], b[j]);
+      with_covariance.push_back(st);
+    }
+    ceres::Covariance::Options covariance_options;
+    covariance_options.algorithm_type = ceres::SPARSE_QR;
+    covariance_options.num_threads = 1;
+    ceres::Covariance covariance(covariance_options);
+    if (covariance.Compute(blocks, &ceres_problem)) {
+      for (size_t st : with_covariance) {
+        const size_t k = keyframe_index.at(inertial.states[st].keyframe_id);
+        Eigen::Matrix<double, 9, 9, Eigen::RowMajor> tangent;
+        if (!covariance.GetCovarianceMatrixInTangentSpace(
+                {poses[k].q.data(), poses[k].t.data(), states[st].v.data()}, tangent.data()))
+          continue;
+        // Tangent space of q_cam_world: R_cam_world <- Exp(2 delta) R_cam_world (Ceres' quaternion
+        // manifold, half-angle delta). Then theta_world = -2 R_world_cam delta and
+        // p_world_cam = -R_world_cam t_cam_world moves by -2 R_world_cam [t]x delta - R_world_cam dt.
+        const Pose& T_cw = problem->keyframes[k].T_cam_world;
+        const Eigen::Matrix3d R_wc = T_cw.linear().transpose();
+        Eigen::Matrix<double, 9, 9> J = Eigen::Matrix<double, 9, 9>::Zero();
+        J.block<3, 3>(0, 0) = -2.0 * R_wc * skew(T_cw.translation());
+        J.block<3, 3>(0, 3) = -R_wc;
+        J.block<3, 3>(3, 0) = -2.0 * R_wc;
+        J.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity();
+        inertial.states[st].covariance = J * tangent * J.transpose();
+        inertial.states[st].has_covariance = true;
+      }
+    }
+    summary.covariance_ms = elapsedMs(covariance_start);
+  }
 
   const std::vector<double> final_errors =
       usable ? reprojectionErrors(*problem, obs_keyframe, obs_point) : initial_errors;
@@ -632,6 +723,7 @@ AsyncBundleAdjuster::~AsyncBundleAdjuster() {
   }
   abort_.store(true);
   wake_.notify_all();
+  covariance_done_.notify_all();
   if (worker_.joinable()) worker_.join();
 }
 
@@ -652,6 +744,14 @@ std::optional<std::pair<BaProblem, BaSummary>> AsyncBundleAdjuster::takeResult()
   }
   std::optional<std::pair<BaProblem, BaSummary>> result = std::move(finished_);
   finished_.reset();
+  return result;
+}
+
+std::optional<std::vector<BaInertialState>> AsyncBundleAdjuster::takeCovariance() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  covariance_done_.wait(lock, [this] { return !covariance_running_; });
+  std::optional<std::vector<BaInertialState>> result = std::move(covariance_finished_);
+  covariance_finished_.reset();
   return result;
 }
 
@@ -678,10 +778,18 @@ void AsyncBundleAdjuster::run() {
     // The solve runs without the lock, so submit()/takeResult() never wait for it.
     std::optional<BaSummary> summary;
     std::exception_ptr error;
+    const bool want_covariance = problem.inertial.compute_covariance;
+    problem.inertial.compute_covariance = false;
     try {
       summary = adjustBundleImpl(&problem, config_, &abort_, nullptr);
     } catch (...) {
       error = std::current_exception();
+    }
+    // The covariance of the solution: the same problem, zero iterations.
+    std::optional<BaProblem> covariance_problem;
+    if (want_covariance && !error && summary->converged) {
+      covariance_problem = problem;
+      covariance_problem->inertial.compute_covariance = true;
     }
 
     lock.lock();
@@ -695,7 +803,23 @@ void AsyncBundleAdjuster::run() {
         finished_.emplace(std::move(problem), std::move(*summary));
       }
     }
+    covariance_running_ = covariance_problem.has_value() && !stop_;
+    covariance_finished_.reset();
     idle_.notify_all();
+    if (covariance_running_) {
+      lock.unlock();
+      BundleAdjustmentConfig evaluate_only = config_;
+      evaluate_only.max_iterations = 0;
+      try {
+        adjustBundleImpl(&*covariance_problem, evaluate_only, &abort_, nullptr);
+      } catch (...) {
+        covariance_problem.reset();  // the solve itself succeeded on the same problem: not expected
+      }
+      lock.lock();
+      if (covariance_problem) covariance_finished_ = std::move(covariance_problem->inertial.states);
+      covariance_running_ = false;
+      covariance_done_.notify_all();
+    }
   }
 }
 

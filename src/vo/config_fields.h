@@ -201,6 +201,9 @@ void imuFields(C& c, V& v) {
   v("cam_imu_yaw_deg", c.cam_imu_yaw_deg, -180.0, 180.0);
   v("time_offset_s", c.time_offset_s, -1.0, 1.0);
   v("max_gap_s", c.max_gap_s, 0.0, 1.0);
+  v("initial_position_sigma_m", c.initial_position_sigma_m, 1e-6, 1e6);
+  v("initial_attitude_sigma_deg", c.initial_attitude_sigma_deg, 1e-6, 180.0);
+  v("initial_velocity_sigma_mps", c.initial_velocity_sigma_mps, 1e-6, 1e4);
 }
 
 /// Walks every section of VoConfig in file order.

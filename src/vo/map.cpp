@@ -187,6 +187,10 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
     if (Keyframe* kf = keyframe(st.keyframe_id)) {
       kf->v_world_mps = st.v_world_mps;
       kf->imu_bias = st.bias;
+      if (st.has_covariance && !kf->has_covariance) {
+        kf->has_covariance = true;
+        kf->covariance = st.covariance;
+      }
     }
   }
   std::unordered_set<uint64_t> touched;
@@ -208,6 +212,15 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
     }
   }
   return removed;
+}
+
+void Map::applyCovariances(const std::vector<BaInertialState>& states) {
+  for (const BaInertialState& st : states) {
+    Keyframe* kf = keyframe(st.keyframe_id);
+    if (kf == nullptr || !st.has_covariance || kf->has_covariance) continue;
+    kf->has_covariance = true;
+    kf->covariance = st.covariance;
+  }
 }
 
 void Map::pointViews(std::vector<MapPointView>* out) const {

@@ -46,6 +46,33 @@ constexpr double kMaxInertialBridgeS = 30.0;
 // turn-on sigma moves it by less than this fraction.
 constexpr double kMaxInertialScaleError = 0.01;
 
+/// The covariance of [position, attitude, velocity] (world; attitude: truth = Exp(theta) estimate) of state
+/// `a` moved on to state `b` by the IMU: the linearised propagation (the attitude error rotates the
+/// integrated motion, the velocity error grows the position error) plus the white noise of the gyro and
+/// the accelerometer over the span. The bias uncertainty is not carried (the states hold no bias
+/// covariance), so over long spans without a keyframe it is optimistic.
+Eigen::Matrix<double, 9, 9> propagateCovariance(const Eigen::Matrix<double, 9, 9>& P, const NavState& a,
+                                                const NavState& b, const ImuAidingConfig& imu,
+                                                const Eigen::Vector3d& gravity) {
+  const double dt = b.timestamp_s - a.timestamp_s;
+  if (!(dt > 0.0)) return P;
+  const Eigen::Vector3d dp = b.T_world_body.translation() - a.T_world_body.translation() -
+                             a.v_world_mps * dt - 0.5 * gravity * dt * dt;
+  const Eigen::Vector3d dv = b.v_world_mps - a.v_world_mps - gravity * dt;
+  Eigen::Matrix<double, 9, 9> F = Eigen::Matrix<double, 9, 9>::Identity();
+  F.block<3, 3>(0, 3) = -skew(dp);
+  F.block<3, 3>(0, 6) = dt * Eigen::Matrix3d::Identity();
+  F.block<3, 3>(6, 3) = -skew(dv);
+  const double qa = imu.accel_noise_density_mps2_per_sqrt_hz * imu.accel_noise_density_mps2_per_sqrt_hz;
+  const double qg = imu.gyro_noise_density_radps_per_sqrt_hz * imu.gyro_noise_density_radps_per_sqrt_hz;
+  Eigen::Matrix<double, 9, 9> Q = Eigen::Matrix<double, 9, 9>::Zero();
+  Q.block<3, 3>(0, 0) = qa * dt * dt * dt / 3.0 * Eigen::Matrix3d::Identity();
+  Q.block<3, 3>(0, 6) = Q.block<3, 3>(6, 0) = qa * dt * dt / 2.0 * Eigen::Matrix3d::Identity();
+  Q.block<3, 3>(3, 3) = qg * dt * Eigen::Matrix3d::Identity();
+  Q.block<3, 3>(6, 6) = qa * dt * Eigen::Matrix3d::Identity();
+  return F * P * F.transpose() + Q;
+}
+
 }  // namespace
 
 const char* toString(PipelineStage stage) {
@@ -84,6 +111,7 @@ void Pipeline::reset() {
   if (async_ba_) {
     async_ba_->waitIdle();
     async_ba_->takeResult();  // belongs to the old map
+    async_ba_->takeCovariance();
   }
   tracker_.reset();
   map_.clear();
@@ -97,6 +125,7 @@ void Pipeline::reset() {
   altimeter_.clear();
   inertial_.clear();
   carried_inertial_.reset();
+  carried_covariance_.reset();
   failed_frames_ = 0;
   scale_confidence_ = 0.0;
   frames_since_keyframe_ = 0;
@@ -173,8 +202,15 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.processed = true;
   timestamp_s_ = timestamp_s;
   // The handed-over state belongs to the first image.
-  if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_)
+  if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_) {
     carried_inertial_ = inertial_.bodyState(timestamp_s, T_world_cam_initial_, *v_initial_world_mps_, {});
+    Eigen::Matrix<double, 9, 1> sigma;
+    sigma << Eigen::Vector3d::Constant(config_.imu.initial_position_sigma_m),
+        Eigen::Vector3d::Constant(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0),
+        Eigen::Vector3d::Constant(config_.imu.initial_velocity_sigma_mps);
+    carried_covariance_ = std::make_pair(*carried_inertial_, Eigen::Matrix<double, 9, 9>(
+                                                                 sigma.cwiseAbs2().asDiagonal()));
+  }
 
   // The adjustment submitted at the last keyframe runs while LK tracks this image (LK touches only the
   // tracker), and is applied before the pose is estimated against the map.
@@ -421,6 +457,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
   const Pose T_world_ref = reference_.T_world_cam;
   const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
   if (const std::optional<NavState> carried = newestInertialState()) carried_inertial_ = carried;
+  if (auto carried = newestCovariance()) carried_covariance_ = carried;
   map_.clear();
   const uint64_t kf_ref =
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
@@ -626,6 +663,10 @@ std::vector<BaRangeObservation> Pipeline::altimeterRanges() const {
 void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (!config_.bundle_adjustment.enabled) return;
   const Clock::time_point start = Clock::now();
+  // The covariance of the previous window (computed by the worker after that solve) before this window's
+  // anchor needs it.
+  if (async_ba_)
+    if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
   const std::vector<BaRangeObservation> ranges = altimeterRanges();
   // The window with `num_fixed` oldest keyframes fixed, and the ranges of its free keyframes.
   auto makeProblem = [&](int num_fixed) {
@@ -687,6 +728,15 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
 // Camera + IMU.
 
 namespace planetary_vo {
+
+std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> Pipeline::newestCovariance() const {
+  const auto& kfs = map_.keyframes();
+  for (auto it = kfs.rbegin(); it != kfs.rend(); ++it)
+    if (it->has_inertial_state && it->has_covariance)
+      return std::make_pair(
+          inertial_.bodyState(it->timestamp_s, it->T_world_cam, it->v_world_mps, it->imu_bias), it->covariance);
+  return carried_covariance_;
+}
 
 std::optional<NavState> Pipeline::navStateAt(double t_s) const {
   if (!last_nav_state_ || t_s < last_nav_state_->timestamp_s) return std::nullopt;
@@ -791,6 +841,21 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
     inertial.states.clear();
     return;
   }
+  // The covariance of the window's states, the oldest (held) one released under the covariance it had: its
+  // own from an earlier window, else the newest known one moved on to it by the IMU's noise.
+  const Keyframe* anchor = map_.keyframe(inertial.states.front().keyframe_id);
+  if (anchor->has_covariance) {
+    inertial.compute_covariance = true;
+    inertial.anchor_covariance = anchor->covariance;
+  } else if (const auto known = newestCovariance()) {
+    const NavState anchor_state =
+        inertial_.bodyState(anchor->timestamp_s, anchor->T_world_cam, anchor->v_world_mps, anchor->imu_bias);
+    if (known->first.timestamp_s <= anchor_state.timestamp_s) {
+      inertial.compute_covariance = true;
+      inertial.anchor_covariance =
+          propagateCovariance(known->second, known->first, anchor_state, config_.imu, inertial_.gravityWorld());
+    }
+  }
   // The oldest state's velocity is held with its fixed pose (both what earlier windows estimated, or what was
   // handed over); its biases get the data sheet's turn-on sigma about the estimate so far.
   inertial.states.front().velocity_fixed =
@@ -811,6 +876,13 @@ void Pipeline::fillInertialOutput(FrameResult* result) const {
   result->has_velocity = true;
   result->v_world_mps = now->v_world_mps;
   result->imu_bias = now->bias();
+  if (const auto known = newestCovariance(); known && known->first.timestamp_s <= timestamp_s_) {
+    NavState frame = *now;
+    if (result->hasPoseEstimate()) frame.T_world_body = result->T_world_cam * inertial_.T_cam_imu();
+    result->covariance =
+        propagateCovariance(known->second, known->first, frame, config_.imu, inertial_.gravityWorld());
+    result->has_covariance = true;
+  }
   const auto& kfs = map_.keyframes();
   result->inertial = metric_scale_ && !kfs.empty() && kfs.back().has_inertial_state;
 }

@@ -95,6 +95,10 @@ struct BaInertialState {
   /// The velocity is held (like the fixed pose of the window's oldest keyframe: what earlier windows
   /// estimated, or the velocity handed over); the biases stay free.
   bool velocity_fixed = false;
+  /// Output of BaInertial::compute_covariance: the covariance of [position (world, m), attitude (world-frame
+  /// rotation vector, rad), velocity (world, m/s)] of the keyframe's camera and body velocity.
+  bool has_covariance = false;
+  Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
 };
 
 /// The preintegrated IMU between two keyframes of the problem (i older than j): an ImuFactor and a bias
@@ -121,6 +125,12 @@ struct BaInertial {
   std::vector<BaInertialState> states;
   std::vector<BaImuConstraint> constraints;  ///< both keyframes must have a state
   std::vector<BaBiasPrior> bias_priors;
+  /// After the solve, the covariance of every state (BaInertialState::covariance): the solution's
+  /// information with the oldest state's fixed pose and velocity released under a prior of
+  /// anchor_covariance (same order as the output), so that what the window's gauge holds fixed carries the
+  /// uncertainty it had. Left out (has_covariance false) when the problem is rank-deficient.
+  bool compute_covariance = false;
+  Eigen::Matrix<double, 9, 9> anchor_covariance = Eigen::Matrix<double, 9, 9>::Identity();
 };
 
 struct BaProblem {
@@ -140,6 +150,7 @@ struct BaSummary {
   double solve_ms = 0.0;        ///< wall time of the whole call (set-up, solve, evaluation)
   int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
   int imu_factors = 0;          ///< preintegrated IMU factors that took part
+  double covariance_ms = 0.0;   ///< time of the covariance (BaInertial::compute_covariance)
   /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops
   /// them. The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera
   /// are listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.
@@ -162,6 +173,10 @@ BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_wo
 /// submits at a keyframe and collects with waitIdle() + takeResult() after the next image's KLT, so the
 /// solve overlaps that tracking and its result always lands at the same frame.
 /// At most one problem is in flight; submitting while busy replaces the queued (not yet started) problem.
+/// A problem that asks for the covariance (BaInertial::compute_covariance) is solved without it first, so that
+/// takeResult() does not wait for it; the worker then computes the covariance of the solution and keeps it
+/// for takeCovariance(), which waits for it (call it at the next keyframe: by then it is long done in real
+/// time, and it lands at the same keyframe on every run).
 /// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its
 /// own copy of the problem. A solve that failed with an exception (bad input, see above) is rethrown by the
 /// next takeResult(). Destroying the adjuster while a solve runs aborts that solve at its next Ceres
@@ -177,7 +192,10 @@ class AsyncBundleAdjuster {
   void submit(BaProblem problem);
   /// The most recent finished adjustment, if one finished since the last call.
   std::optional<std::pair<BaProblem, BaSummary>> takeResult();
-  /// Blocks until nothing is queued or running (for reproducible offline runs and tests).
+  /// The inertial states with their covariance of the last solve that asked for one (waits until it is
+  /// computed); nullopt when none is pending.
+  std::optional<std::vector<BaInertialState>> takeCovariance();
+  /// Blocks until no solve is queued or running (a covariance may still be computed).
   void waitIdle();
   bool busy() const;
 
@@ -188,7 +206,10 @@ class AsyncBundleAdjuster {
   std::condition_variable wake_, idle_;
   std::optional<BaProblem> queued_;
   std::optional<std::pair<BaProblem, BaSummary>> finished_;
+  std::optional<std::vector<BaInertialState>> covariance_finished_;
+  std::condition_variable covariance_done_;
   bool running_ = false;
+  bool covariance_running_ = false;
   bool stop_ = false;
   std::atomic<bool> abort_{false};  ///< read by the Ceres callback without the mutex
   std::exception_ptr error_;        ///< exception of the last solve, rethrown by takeResult()

@@ -201,6 +201,10 @@ struct ImuAidingConfig {
   /// Gaps in the IMU stream up to this long are bridged by holding the last sample; a longer gap breaks the
   /// inertial chain (the keyframes on either side are not tied by an IMU factor; the status says so).
   double max_gap_s = 0.05;
+  /// 1-sigma of the handed-over initial state (what guidance claims), the start of the covariance.
+  double initial_position_sigma_m = 1.0;
+  double initial_attitude_sigma_deg = 0.05;
+  double initial_velocity_sigma_mps = 0.05;
 };
 
 /// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).

@@ -41,6 +41,11 @@ struct Keyframe {
   Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
   ImuBias imu_bias;
   std::shared_ptr<const ImuPreintegration> imu_from_previous;
+  /// Covariance of [position, attitude, velocity] (BaInertialState::covariance) from the first window solve
+  /// that had the keyframe free, the one in which it was the newest: later windows would count again the
+  /// measurements its anchor's covariance already holds.
+  bool has_covariance = false;
+  Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
 };
 
 struct MapObservation {
@@ -110,6 +115,10 @@ class Map {
   /// Writes optimised poses, points and inertial states back (ids that no longer exist are skipped) and removes the outlier
   /// observations; points left with fewer than 2 observations are removed. Returns the points removed.
   int applyBaResult(const BaProblem& problem, const std::vector<BaObservation>& outliers);
+
+  /// Stores the covariances of the states that have one, on keyframes without one yet (keyframes that no
+  /// longer exist are skipped).
+  void applyCovariances(const std::vector<BaInertialState>& states);
 
   const std::deque<Keyframe>& keyframes() const { return keyframes_; }
   const std::unordered_map<uint64_t, MapPoint>& points() const { return points_; }

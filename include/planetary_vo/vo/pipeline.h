@@ -177,6 +177,8 @@ class Pipeline {
   /// Metres per unit of a new two-view map from the IMU baseline between the reference and the current
   /// image (propagated from newestInertialState()), or NaN with `why`.
   double inertialMapScale(const Initialization& init, std::string* why) const;
+  /// The newest inertial state that has a covariance (a keyframe's, else the carried one) and that covariance.
+  std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> newestCovariance() const;
   /// Adds the window's inertial states, IMU factors and bias prior to `problem`.
   void addInertialFactors(BaProblem* problem) const;
   /// Velocity and biases of this frame (camera + IMU mode).
@@ -205,6 +207,9 @@ class Pipeline {
   bool initial_pose_given_ = false;                     // the world is the handed-over, gravity-aligned one
   std::optional<Eigen::Vector3d> v_initial_world_mps_;  // handed-over velocity at the first image
   std::optional<NavState> carried_inertial_;            // inertial state before / between maps
+  /// Covariance (position, attitude, velocity) of the state handed over or carried between maps, and that
+  /// state.
+  std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> carried_covariance_;
   bool metric_scale_ = false;                           // map and trajectory in metres (vision + altimeter)
   ScaleSource scale_source_ = ScaleSource::kNone;       // what made them metres
   std::optional<NavState> last_nav_state_;              // inertial state of the last processed frame

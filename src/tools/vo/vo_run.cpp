@@ -34,6 +34,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
@@ -53,7 +55,19 @@ struct Options {
   bool quiet = false;
   bool initial_state_from_groundtruth = false;
   std::string velocity_path;
+  std::string covariance_path;
+  Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
 };
+
+/// "X,Y,Z" -> vector; false when malformed.
+bool parseTriple(const std::string& text, Eigen::Vector3d* out) {
+  double v[3];
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3) return false;
+  *out = Eigen::Vector3d(v[0], v[1], v[2]);
+  return out->allFinite();
+}
 
 void usage(std::ostream& out) {
   out << "usage: vo_run --dataset DIR --output traj.txt [--config YAML] [--max-frames N] [--frame-log FILE]\n"
@@ -67,6 +81,11 @@ void usage(std::ostream& out) {
          "  --quiet           no progress and no summary\n"
          "  --output-velocity FILE  t vx vy vz [m/s, world] and the IMU bias estimates of every frame\n"
          "                    with a velocity (camera + IMU mode)\n"
+         "  --initial-error-m DX,DY,DZ / --initial-error-deg RX,RY,RZ  error of the handed-over state:\n"
+         "                    position offset (world, m) and rotation vector applied to the attitude (world,\n"
+         "                    deg), as vo_eval --initial-error-m/-deg (Monte Carlo campaigns)\n"
+         "  --output-covariance FILE  t and the 6x6 covariance of [position (m), attitude (rad)], world frame,\n"
+         "                    row-major, of every frame with one (camera + IMU mode; vo_eval --est-cov)\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -102,6 +121,15 @@ bool parseArgs(int argc, char** argv, Options* options) {
       }
     } else if (arg == "--frame-log") {
       if (!value(&options->frame_log_path)) return false;
+    } else if (arg == "--initial-error-m" || arg == "--initial-error-deg") {
+      if (!value(&text)) return false;
+      if (!parseTriple(text, arg == "--initial-error-m" ? &options->initial_error_m
+                                                        : &options->initial_error_deg)) {
+        std::cerr << "vo_run: " << arg << " needs X,Y,Z, got '" << text << "'\n";
+        return false;
+      }
+    } else if (arg == "--output-covariance") {
+      if (!value(&options->covariance_path)) return false;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-state-from-groundtruth") {
@@ -154,7 +182,13 @@ int main(int argc, char** argv) {
     if (options.initial_state_from_groundtruth) {
       if (!dataset.hasGroundTruth())
         throw std::runtime_error("--initial-state-from-groundtruth: the dataset has no ground truth");
-      const StampedPose& first = dataset.groundTruth().front();
+      StampedPose first = dataset.groundTruth().front();
+      // The handover as guidance would give it, with its error (campaigns disperse it).
+      const Eigen::Vector3d rv = options.initial_error_deg * M_PI / 180.0;
+      if (rv.norm() > 0.0)
+        first.T_world_cam.linear() =
+            Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() * first.T_world_cam.linear();
+      first.T_world_cam.translation() += options.initial_error_m;
       const std::string state_path = dataset.directory() + "/groundtruth_state.txt";
       std::vector<GroundTruthState> states;
       if (std::ifstream(state_path).good()) states = readGroundTruthStates(state_path);
@@ -172,7 +206,13 @@ int main(int argc, char** argv) {
     if (config.imu.enabled && imu.empty())
       throw std::runtime_error("imu.enabled: the dataset has no IMU samples (imu.txt)");
     size_t next_imu = 0;
-    std::ofstream velocity_out;
+    std::ofstream velocity_out, covariance_out;
+    if (!options.covariance_path.empty()) {
+      covariance_out.open(options.covariance_path);
+      if (!covariance_out) throw std::runtime_error("cannot write " + options.covariance_path);
+      covariance_out << "# timestamp[s] and the 6x6 covariance of [position (m), attitude (rad, world-frame "
+                        "rotation vector: truth = Exp(theta) estimate)], row-major\n";
+    }
     if (!options.velocity_path.empty()) {
       velocity_out.open(options.velocity_path);
       if (!velocity_out) throw std::runtime_error("cannot write " + options.velocity_path);
@@ -238,6 +278,13 @@ int main(int argc, char** argv) {
                      << r.imu_bias.gyro_radps.z() << ' ' << r.imu_bias.accel_mps2.x() << ' '
                      << r.imu_bias.accel_mps2.y() << ' ' << r.imu_bias.accel_mps2.z() << '\n';
       if (r.inertial) ++inertial_frames;
+      if (covariance_out.is_open() && r.has_covariance && r.state != TrackingState::kInitialising) {
+        covariance_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::scientific
+                       << std::setprecision(9);
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b) covariance_out << ' ' << r.covariance(a, b);
+        covariance_out << std::defaultfloat << '\n';
+      }
       if (progress) {
         std::fprintf(stderr, "\r%zu/%zu  %-12s %4d tracked %4d inliers %5d points %5.1f ms", i + 1,
                      num_frames, toString(r.state), r.num_tracked, r.num_inliers, r.num_map_points,

@@ -149,6 +149,9 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.imu.cam_imu_yaw_deg, 90.0);
   EXPECT_DOUBLE_EQ(c.imu.time_offset_s, 0.002);
   EXPECT_DOUBLE_EQ(c.imu.max_gap_s, 0.1);
+  EXPECT_DOUBLE_EQ(c.imu.initial_position_sigma_m, 2.0);
+  EXPECT_DOUBLE_EQ(c.imu.initial_attitude_sigma_deg, 0.1);
+  EXPECT_DOUBLE_EQ(c.imu.initial_velocity_sigma_mps, 0.2);
 }
 
 // A +z (nadir) prior by default picked the wrong homography decomposition at frame 1 of the KITTI
@@ -213,7 +216,7 @@ TEST(VoConfig, EachSectionTakesPartInEquality) {
   c.imu = fixture.imu;
   EXPECT_FALSE(c == defaults) << "imu";
   c = VoConfig();
-  c.imu.max_gap_s = 0.07;
+  c.imu.initial_velocity_sigma_mps = 0.07;
   EXPECT_FALSE(c == defaults) << "imu, last key";
   // The last key of a section, in case a walker stops early.
   c = VoConfig();
