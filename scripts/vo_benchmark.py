@@ -10,7 +10,9 @@ configuration, scores the trajectory with vo_eval and prints one table:
   first-pose         the navigation is handed its initial state (pose and, for a VO without metric scale, the
   alignment          scale of the velocity over the first FIRST_SCALE_WINDOW_S seconds): error at the end (the
                      low gate) in m and in % of the distance travelled, velocity error RMS, tilt error at the end
-  SE(3) / NEES       only for metric estimates with a covariance: "-" for the monocular VO (no metric scale)
+  ATE unaligned,     metric rows only: the ATE RMSE in m without any alignment, and the mean NEES of position and of
+  NEES pos / att     attitude (3 dof each; a consistent covariance gives 3) for the rows with a covariance
+                     (imu, fused); "-" for the monocular VO (no metric scale)
   posed              frames whose pose was estimated (TRACKING or RECOVERED) / processed frames
   mark               correct: Sim(3) ATE <= 1 % and attitude drift <= 0.5 deg; partial: ATE <= 5 %; failed: worse,
                      or fewer than 90 % of the frames posed (lost)
@@ -220,6 +222,13 @@ def eval_metrics(sim3, first):
         m["end_tilt_deg"] = fin.get("tilt_error_deg")
         if first.get("velocity_error_mps"):
             m["velocity_rms_mps"] = first["velocity_error_mps"]["rmse"]
+        if first.get("alignment", {}).get("mode") == "none":
+            m["abs_ate_m"] = first.get("ate_m", {}).get("rmse")
+        nees = first.get("nees") or {}
+        if nees.get("position"):
+            m["nees_position"] = nees["position"]["mean"]
+        if nees.get("attitude"):
+            m["nees_attitude"] = nees["attitude"]["mean"]
     return m
 
 
@@ -305,8 +314,9 @@ def main():
             stamp = os.path.join(dataset, "render_stamp.txt") if row["sequence"] != "kitti_clip_turn" else gt
             handover = ["--initial-state-from-groundtruth"] if row.get("metric") else []
             velocity = os.path.join(out, "velocity.txt")
+            covariance = os.path.join(out, "covariance.txt")
             if row.get("velocity"):
-                handover += ["--output-velocity", velocity]
+                handover += ["--output-velocity", velocity, "--output-covariance", covariance]
             rc, reused = run_vo([os.path.join(bin_dir, "vo_run"), "--dataset", dataset, "--config", config_path,
                                  "--output", traj] + handover, run_log, traj,
                                 [stamp, config_path, os.path.join(bin_dir, "vo_run")], args.rerun_vo)
@@ -330,7 +340,7 @@ def main():
                     ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S)]
                 cmd = common + align + ["--json", first_json]
                 if row.get("velocity"):
-                    cmd += ["--est-velocity", velocity]
+                    cmd += ["--est-velocity", velocity, "--est-cov", covariance]
                 if run(cmd, os.path.join(out, "vo_eval_first.log"))[0] == 0:
                     with open(first_json) as f:
                         first = json.load(f)
@@ -366,8 +376,19 @@ def fmt(v, spec):
 HEADER = ("| sequence | image | sensors | Sun el/az deg | terrain (DEM #placement, seed) | sensor seed | "
           "defaults | config | Sim3 ATE % | attitude drift deg | 1-frame RPE % | RPE over 10 % of path, % | "
           "scale err RMS % | "
-          "end err m (% dist) | velocity err RMS m/s | end tilt deg | SE3 ATE, NEES | posed | mark | "
+          "end err m (% dist) | velocity err RMS m/s | end tilt deg | ATE unaligned, NEES pos / att | posed | mark | "
           "ms/frame median / p99 |")
+
+
+def se3_nees(r):
+    """The metric rows' ATE without any alignment and the mean NEES of position / attitude (3 dof each: a
+    consistent covariance gives 3)."""
+    if not r.get("metric"):
+        return "- (no metric scale)"
+    ate = "-" if r.get("abs_ate_m") is None else f"{r['abs_ate_m']:.2f} m"
+    if r.get("nees_position") is None:
+        return f"{ate}, - (no covariance)"
+    return f"{ate}, {r['nees_position']:.2f} / {fmt(r.get('nees_attitude'), '.2f')}"
 
 
 def format_row(r):
@@ -379,7 +400,7 @@ def format_row(r):
             f"{fmt(r.get('rpe1_percent'), '.2f')} | {fmt(r.get('rpe_dist_percent'), '.2f')} | "
             f"{fmt(r.get('scale_err_percent'), '.2f')} | {end} | "
             f"{fmt(r.get('velocity_rms_mps'), '.2f')} | {fmt(r.get('end_tilt_deg'), '.3f')} | "
-            f"{'- (no covariance yet)' if r.get('metric') else '- (no metric scale)'} | "
+            f"{se3_nees(r)} | "
             f"{r.get('coverage', 0) * 100:.0f} % | {r['mark']} | "
             f"{fmt(r.get('track_median_ms'), '.1f')} / {fmt(r.get('track_p99_ms'), '.1f')} |")
 
@@ -426,8 +447,9 @@ def write_docs(tables, results, args):
              "`lunar_altimeter` rows (vision + altimeter, metric): they are handed the first true pose only and "
              "scored without any alignment, and the `lunar_imu` / `lunar_fused` rows (camera + IMU, with the "
              "altimeter): handed the first true pose and velocity, scored without any alignment, velocity error "
-             "of the estimator's own velocity; SE3 ATE and NEES need a metric "
-             "estimate with a covariance (the monocular VO has neither); posed = frames with an estimated pose "
+             "of the estimator's own velocity; ATE unaligned = ATE RMSE in m without any alignment (metric rows), "
+             "NEES pos / att = mean NEES of position and attitude (3 dof each, 3 when consistent; rows with a "
+             "covariance: imu, fused); posed = frames with an estimated pose "
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
              "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "
              "or fewer than 90 % of the processed frames posed (lost).", "", tables, ""]

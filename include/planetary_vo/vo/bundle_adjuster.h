@@ -151,6 +151,8 @@ struct BaSummary {
   int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
   int imu_factors = 0;          ///< preintegrated IMU factors that took part
   double covariance_ms = 0.0;   ///< time of the covariance (BaInertial::compute_covariance)
+  /// The covariance had to hold the points (rank-deficient with them: far terrain); it is then too small.
+  bool covariance_points_held = false;
   /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops
   /// them. The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera
   /// are listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <glog/logging.h>
 
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
@@ -170,6 +171,9 @@ double quantile(std::vector<double> values, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Ceres logs through glog; its warnings (e.g. a covariance that falls back to held points) would flood the
+  // summary. Errors still print.
+  FLAGS_minloglevel = google::GLOG_ERROR;
   Options options;
   if (!parseArgs(argc, argv, &options)) {
     usage(std::cerr);
