@@ -81,9 +81,13 @@ endif()
 #   rostests with the gtest nodes
 #     test_vo_node       vo_end_to_end (player node -> nodelet) and vo_bag (rosbag play of a `player --bag` bag):
 #                        Sim(3) ATE bound, map, tf world -> camera, status stream
-#     test_vo_bad_input  vo_bad_input_<case>: crafted images/camera_info published directly to the nodelet
+#     test_vo_bad_input  vo_bad_input_<case>: crafted images/camera_info published directly to the nodelet;
+#                        case samples: bad IMU / altimeter samples into the fused configuration
 #     test_vo_manager    vo_reload: unload and reload of the nodelet in a running manager
 #     test_vo_params     vo_params: config/default.yaml through rosparam == loadVoConfig(default.yaml)
+#     test_vo_fused      vo_fused: player (with the nav/initial_state handover) -> nodelet with
+#                        config/lunar_fused.yaml; nav/odometry against ground truth without alignment, at the
+#                        IMU rate; vo/status mode, metric, inertial, counters
 # ---------------------------------------------------------------------------------------------------------------
 catkin_add_gtest(ros_test_vo_conversions test/ros/test_vo_conversions.cpp)
 if(TARGET ros_test_vo_conversions)
@@ -109,7 +113,7 @@ add_custom_target(vo_test_data DEPENDS ${VO_TEST_DATASET}/times.txt ${VO_TEST_BA
 add_dependencies(tests vo_test_data planetary_vo_nodelets vo_node)
 
 if(TARGET GTest::gtest)
-  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params)
+  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params test_vo_fused)
     add_executable(${node} EXCLUDE_FROM_ALL test/ros/${node}.cpp)
     target_link_libraries(${node} planetary_vo_ros planetary_vo_eval GTest::gtest)
     target_include_directories(${node} PRIVATE ${PROJECT_SOURCE_DIR}/test/ros)
@@ -126,9 +130,14 @@ if(TARGET GTest::gtest)
     add_rostest(test/ros/vo_bad_input.test ARGS case:=${case} dataset:=${VO_TEST_DATASET}
                 DEPENDENCIES test_vo_bad_input ${vo_deps})
   endforeach()
+  add_rostest(test/ros/vo_bad_input.test ARGS case:=samples dataset:=${VO_TEST_DATASET}
+              config:=${PROJECT_SOURCE_DIR}/config/lunar_fused.yaml
+              DEPENDENCIES test_vo_bad_input ${vo_deps})
   add_rostest(test/ros/vo_reload.test ARGS dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_vo_manager ${vo_deps})
   add_rostest(test/ros/vo_params.test DEPENDENCIES test_vo_params planetary_vo_nodelets)
+  add_rostest(test/ros/vo_fused.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_fused player ${vo_deps})
 endif()
 
 # ---------------------------------------------------------------------------------------------------------------

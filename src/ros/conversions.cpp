@@ -3,6 +3,9 @@
 
 #include "planetary_vo/ros_io/conversions.h"
 
+#include <cmath>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 
 #include <cv_bridge/cv_bridge.h>
@@ -162,6 +165,124 @@ sensor_msgs::Range toRange(const AltimeterSample& sample, const std_msgs::Header
   msg.min_range = static_cast<float>(spec.min_range_m);
   msg.max_range = static_cast<float>(spec.max_range_m);
   msg.range = static_cast<float>(sample.slant_range_m);
+  return msg;
+}
+
+namespace {
+
+bool finite3(double x, double y, double z) {
+  return std::isfinite(x) && std::isfinite(y) && std::isfinite(z);
+}
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+bool fromImu(const sensor_msgs::Imu& msg, const ros::Time& epoch, ImuSample* sample, std::string* why) {
+  if (msg.header.stamp.isZero()) {
+    *why = "IMU message with a zero stamp";
+    return false;
+  }
+  if (msg.angular_velocity_covariance[0] == -1.0 || msg.linear_acceleration_covariance[0] == -1.0) {
+    *why = std::string("IMU message without ") +
+           (msg.angular_velocity_covariance[0] == -1.0 ? "angular velocity" : "linear acceleration") +
+           " (covariance[0] = -1)";
+    return false;
+  }
+  const auto& w = msg.angular_velocity;
+  const auto& a = msg.linear_acceleration;
+  if (!finite3(w.x, w.y, w.z) || !finite3(a.x, a.y, a.z)) {
+    *why = "IMU message with a non-finite angular velocity or linear acceleration";
+    return false;
+  }
+  sample->timestamp_s = toDatasetTime(epoch, msg.header.stamp);
+  sample->angular_velocity_radps = Eigen::Vector3d(w.x, w.y, w.z);
+  sample->specific_force_mps2 = Eigen::Vector3d(a.x, a.y, a.z);
+  return true;
+}
+
+const char* toString(RangeReading reading) {
+  switch (reading) {
+    case RangeReading::kRange:
+      return "range";
+    case RangeReading::kNoRange:
+      return "no_range";
+    case RangeReading::kInvalid:
+      return "invalid";
+  }
+  return "?";
+}
+
+RangeReading fromRange(const sensor_msgs::Range& msg, const ros::Time& epoch, AltimeterSample* sample,
+                       std::string* why) {
+  const double r = msg.range;
+  if (msg.header.stamp.isZero()) {
+    *why = "altimeter message with a zero stamp";
+    return RangeReading::kInvalid;
+  }
+  if (std::isnan(r) || (std::isfinite(r) && r < 0.0)) {
+    *why = "altimeter range " + num(r) + " (NaN or negative: an erroneous reading)";
+    return RangeReading::kInvalid;
+  }
+  sample->timestamp_s = toDatasetTime(epoch, msg.header.stamp);
+  sample->slant_range_m = std::numeric_limits<double>::infinity();
+  const double lo = msg.min_range, hi = msg.max_range;
+  const bool limits = std::isfinite(lo) && std::isfinite(hi) && lo >= 0.0 && lo < hi;
+  if (std::isinf(r)) {
+    *why = r > 0.0 ? "no return (+Inf)" : "target too close to measure (-Inf)";
+    return RangeReading::kNoRange;
+  }
+  if (limits && r < lo) {
+    *why = "range " + num(r) + " m below min_range " + num(lo) + " m";
+    return RangeReading::kNoRange;
+  }
+  if (limits && r > hi) {
+    *why = "range " + num(r) + " m above max_range " + num(hi) + " m";
+    return RangeReading::kNoRange;
+  }
+  sample->slant_range_m = r;
+  why->clear();
+  return RangeReading::kRange;
+}
+
+bool fromInitialStateMsg(const nav_msgs::Odometry& msg, const Pose& T_cam_imu, InitialState* state,
+                         std::string* why) {
+  const auto& p = msg.pose.pose.position;
+  const auto& q = msg.pose.pose.orientation;
+  const auto& v = msg.twist.twist.linear;
+  const auto& w = msg.twist.twist.angular;
+  if (!finite3(p.x, p.y, p.z) || !finite3(q.x, q.y, q.z) || !std::isfinite(q.w)) {
+    *why = "initial state: non-finite pose";
+    return false;
+  }
+  if (!finite3(v.x, v.y, v.z) || !finite3(w.x, w.y, w.z)) {
+    *why = "initial state: non-finite velocity";
+    return false;
+  }
+  const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (std::abs(norm - 1.0) > 1e-3) {
+    *why = "initial state: quaternion norm " + num(norm) + " (expected 1)";
+    return false;
+  }
+  state->T_world_cam = fromPoseMsg(msg.pose.pose);
+  const Eigen::Vector3d lever_world = state->T_world_cam.rotation() * T_cam_imu.translation();
+  state->v_world_imu_mps = Eigen::Vector3d(v.x, v.y, v.z) + Eigen::Vector3d(w.x, w.y, w.z).cross(lever_world);
+  return true;
+}
+
+nav_msgs::Odometry toInitialStateMsg(const Pose& T_world_cam, const Eigen::Vector3d& v_world_cam_mps,
+                                     const std_msgs::Header& header, const std::string& camera_frame) {
+  nav_msgs::Odometry msg;
+  msg.header = header;
+  msg.child_frame_id = camera_frame;
+  msg.pose.pose = toPoseMsg(T_world_cam);
+  msg.twist.twist.linear.x = v_world_cam_mps.x();
+  msg.twist.twist.linear.y = v_world_cam_mps.y();
+  msg.twist.twist.linear.z = v_world_cam_mps.z();
   return msg;
 }
 

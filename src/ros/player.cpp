@@ -7,8 +7,12 @@
 #include <stdexcept>
 #include <tuple>
 
+#include <cmath>
+
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
+
+#include "planetary_vo/eval/evaluation_inputs.h"
 
 namespace planetary_vo::ros_io {
 
@@ -185,6 +189,20 @@ class BagSink : public PlayerSink {
   size_t count() const { return count_; }
   void close() { bag_.close(); }
 
+  /// A message `rosbag play` republishes latched (the connection header says so).
+  template <class Msg>
+  void writeLatched(const char* topic, const ros::Time& stamp, const Msg& msg) {
+    // The whole connection header, as a recorder writes it: rosbag reads type and md5sum back from it.
+    auto header = boost::make_shared<ros::M_string>();
+    (*header)["type"] = ros::message_traits::datatype<Msg>();
+    (*header)["md5sum"] = ros::message_traits::md5sum<Msg>();
+    (*header)["message_definition"] = ros::message_traits::definition<Msg>();
+    (*header)["latching"] = "1";
+    (*header)["callerid"] = "/player";
+    bag_.write(absoluteTopic(topic), stamp, msg, header);
+    ++count_;
+  }
+
  private:
   template <class Msg>
   void write(const char* topic, const ros::Time& stamp, const Msg& msg) {
@@ -198,12 +216,51 @@ class BagSink : public PlayerSink {
 
 }  // namespace
 
+std::optional<nav_msgs::Odometry> initialStateMessage(const Player& player, std::string* why) {
+  const Dataset& dataset = player.dataset();
+  const size_t index = player.options().start_index;
+  if (!dataset.hasGroundTruth()) {
+    *why = "the dataset has no ground truth";
+    return std::nullopt;
+  }
+  const double t = dataset.timestamp(index);
+  const std::string path = dataset.directory() + "/groundtruth_state.txt";
+  std::vector<GroundTruthState> states;
+  try {
+    states = readGroundTruthStates(path);
+  } catch (const std::exception& e) {
+    *why = std::string("no ground-truth velocity: ") + e.what();
+    return std::nullopt;
+  }
+  const auto at = std::min_element(states.begin(), states.end(), [t](const auto& a, const auto& b) {
+    return std::abs(a.timestamp_s - t) < std::abs(b.timestamp_s - t);
+  });
+  if (at == states.end() || std::abs(at->timestamp_s - t) > 1e-3) {
+    *why = path + " has no state at the first image time " + std::to_string(t) + " s";
+    return std::nullopt;
+  }
+  const ros::Time stamp = player.stampOf(t);
+  return toInitialStateMsg(dataset.groundTruth().at(index).T_world_cam, at->velocity_world_mps,
+                           makeHeader(stamp, player.options().world_frame), player.options().camera_frame);
+}
+
 size_t writeBag(const Dataset& dataset, const PlayerOptions& options, const std::string& bag_path) {
   ros::Time::init();
   PlayerOptions no_loop = options;
   no_loop.loop = false;
   Player player(dataset, no_loop);
+  std::optional<nav_msgs::Odometry> initial_state;
+  if (options.publish_initial_state) {
+    std::string why;
+    initial_state = initialStateMessage(player, &why);
+    if (!initial_state) throw std::runtime_error("player: no initial state to write: " + why);
+  }
   BagSink sink(bag_path);
+  // 1 ms before the first image in bag time (the header keeps the image's stamp), so that rosbag play sends
+  // it first, and latched, so that a late subscriber still gets it.
+  if (initial_state)
+    sink.writeLatched(player_topics::kInitialState, initial_state->header.stamp - ros::Duration(0.001),
+                      *initial_state);
   player.drainTo(sink);
   sink.close();
   return sink.count();
@@ -211,11 +268,15 @@ size_t writeBag(const Dataset& dataset, const PlayerOptions& options, const std:
 
 const char* playerUsage() {
   return "usage: player [--dataset DIR] [--bag OUT.bag] [--start N] [--time-offset S] [--world-frame F]\n"
-         "              [--camera-frame F] [--gt-frame F] [--no-path] [ROS remappings and _param:=value]\n"
-         "  --bag OUT.bag  write the stream into a bag and exit (no master needed); otherwise run as a ROS "
+         "              [--camera-frame F] [--gt-frame F] [--no-path] [--initial-state]\n"
+         "              [ROS remappings and _param:=value]\n"
+         "  --bag OUT.bag    write the stream into a bag and exit (no master needed); otherwise run as a ROS "
          "node\n"
-         "                 (node parameters ~dataset ~rate ~loop ~publish_clock ..., command line options "
-         "win)\n";
+         "                   (node parameters ~dataset ~rate ~loop ~publish_clock ..., command line options "
+         "win)\n"
+         "  --initial-state  also publish the ground-truth state at the first image on nav/initial_state\n"
+         "                   (latched, once): the guidance handover, the only ground truth meant for the\n"
+         "                   navigation (~publish_initial_state)\n";
 }
 
 PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
@@ -260,6 +321,8 @@ PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
       cl.ground_truth_frame = value();
     } else if (a == "--no-path") {
       cl.no_path = true;
+    } else if (a == "--initial-state") {
+      cl.initial_state = true;
     } else {
       throw std::invalid_argument("player: unknown argument '" + a + "'");
     }
@@ -274,6 +337,7 @@ void applyCommandLine(const PlayerCommandLine& cl, PlayerOptions* options) {
   if (cl.camera_frame) options->camera_frame = *cl.camera_frame;
   if (cl.ground_truth_frame) options->ground_truth_frame = *cl.ground_truth_frame;
   if (cl.no_path) options->publish_path = false;
+  if (cl.initial_state) options->publish_initial_state = true;
 }
 
 }  // namespace planetary_vo::ros_io

@@ -11,6 +11,10 @@
 /// waiting, when ~exit_ack_topic is set, until a message on that topic carries the stamp of the last image
 /// (e.g. the VO's vo/status, one per image: every image has been processed). Both waits give up after
 /// ~wait_timeout.
+///
+/// ~publish_initial_state (default false) publishes, latched and once, the dataset's ground-truth state at
+/// the first image on nav/initial_state: the guidance handover of the fused navigation modes, and the only
+/// ground truth meant for the navigation (player.h initialStateMessage()).
 
 #include <algorithm>
 #include <chrono>
@@ -53,6 +57,13 @@ class LivePublisher : public PlayerSink {
     if (publish_clock) clock_pub_ = nh.advertise<rosgraph_msgs::Clock>(player_topics::kClock, queue_size);
   }
 
+  /// The guidance handover, latched: a subscriber that connects later still gets it.
+  void publishInitialState(ros::NodeHandle& nh, const nav_msgs::Odometry& state) {
+    initial_state_pub_ = nh.advertise<nav_msgs::Odometry>(player_topics::kInitialState, 1, true);
+    initial_state_pub_.publish(state);
+  }
+  size_t numInitialStateSubscribers() const { return initial_state_pub_.getNumSubscribers(); }
+
   /// Subscribers of the camera: the smaller of the image and camera_info subscriber counts, i.e. how many
   /// subscribers would receive both halves of an image published now.
   size_t numCameraSubscribers() const {
@@ -90,7 +101,7 @@ class LivePublisher : public PlayerSink {
   image_transport::ImageTransport image_transport_;
   image_transport::CameraPublisher camera_pub_;
   std::string image_topic_, info_topic_;
-  ros::Publisher pose_pub_, path_pub_, imu_pub_, altimeter_pub_, clock_pub_;
+  ros::Publisher pose_pub_, path_pub_, imu_pub_, altimeter_pub_, clock_pub_, initial_state_pub_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 };
 
@@ -108,6 +119,7 @@ PlayerOptions readOptions(ros::NodeHandle& pnh, const PlayerCommandLine& cl) {
   pnh.param("loop", o.loop, o.loop);
   pnh.param("publish_path", o.publish_path, o.publish_path);
   pnh.param("sensor_spec_from_dataset", o.sensor_spec_from_dataset, o.sensor_spec_from_dataset);
+  pnh.param("publish_initial_state", o.publish_initial_state, o.publish_initial_state);
   applyCommandLine(cl, &o);
   return o;
 }
@@ -148,6 +160,16 @@ class PlayerNode {
     const std::string ack_topic = pnh_.param("exit_ack_topic", std::string());
     if (exit_when_done_ && !ack_topic.empty())
       ack_sub_ = nh_.subscribe(ack_topic, 100, &PlayerNode::onAck, this);
+    if (player_.options().publish_initial_state) {
+      std::string why;
+      initial_state_ = initialStateMessage(player_, &why);
+      if (!initial_state_) throw std::invalid_argument("~publish_initial_state: " + why);
+      // At once, latched: the navigation connects while the player waits for its subscribers, so the state
+      // is there before the first image (which it belongs to).
+      sink_.publishInitialState(nh_, *initial_state_);
+      ROS_INFO_STREAM("player: initial state (ground truth at the first image, the guidance handover) on "
+                      << ros::names::resolve(player_topics::kInitialState));
+    }
     origin_ = Clock::now();
     pause_started_ = origin_;
     pause_srv_ = pnh_.advertiseService("pause", &PlayerNode::onPause, this);
@@ -233,8 +255,11 @@ class PlayerNode {
   void waitForSubscribers(std::unique_lock<std::mutex>& lock) {
     const size_t camera = static_cast<size_t>(wait_for_subscribers_);
     const size_t ground_truth = static_cast<size_t>(wait_for_gt_subscribers_);
+    // With ~publish_initial_state, the camera's subscribers are the navigation: they need the handover too.
+    const size_t initial_state = initial_state_ ? camera : 0;
     auto connected = [&] {
-      return sink_.numCameraSubscribers() >= camera && sink_.numGroundTruthSubscribers() >= ground_truth;
+      return sink_.numCameraSubscribers() >= camera && sink_.numGroundTruthSubscribers() >= ground_truth &&
+             sink_.numInitialStateSubscribers() >= initial_state;
     };
     if (connected()) return;
     const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
@@ -307,6 +332,7 @@ class PlayerNode {
   ros::Time ack_stamp_;            ///< latest stamp seen on ~exit_ack_topic
   ros::Time last_image_stamp_;     ///< of the last image published
   ros::ServiceServer pause_srv_, resume_srv_;
+  std::optional<nav_msgs::Odometry> initial_state_;  ///< ~publish_initial_state
 };
 
 }  // namespace

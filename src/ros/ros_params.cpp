@@ -92,7 +92,15 @@ NodeletParams loadNodeletParams(const ros::NodeHandle& nh) {
   nh.param("max_frame_gap_factor", p.max_frame_gap_factor, p.max_frame_gap_factor);
   nh.param("min_rate_hz", p.min_rate_hz, p.min_rate_hz);
   nh.param("max_rate_hz", p.max_rate_hz, p.max_rate_hz);
+  nh.param("velocity_sigma_mps", p.velocity_sigma_mps, p.velocity_sigma_mps);
+  nh.param("wait_for_initial_state", p.wait_for_initial_state, p.wait_for_initial_state);
+  nh.param("initial_state_tolerance", p.initial_state_tolerance_s, p.initial_state_tolerance_s);
+  nh.param("imu_queue_size", p.imu_queue_size, p.imu_queue_size);
+  nh.param("altimeter_queue_size", p.altimeter_queue_size, p.altimeter_queue_size);
   if (p.queue_size < 1) p.queue_size = 1;
+  if (p.imu_queue_size < 1) p.imu_queue_size = 1;
+  if (p.altimeter_queue_size < 1) p.altimeter_queue_size = 1;
+  if (!(p.initial_state_tolerance_s >= 0.0)) p.initial_state_tolerance_s = 0.0;
   return p;
 }
 

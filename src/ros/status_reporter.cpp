@@ -3,6 +3,8 @@
 
 #include "planetary_vo/ros_io/status_reporter.h"
 
+#include <cstdio>
+
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
 namespace planetary_vo::ros_io {
@@ -40,6 +42,17 @@ void StatusReporter::update(const VoStatus& status, bool published_odometry) {
   if (published_odometry) odometry_rate_->tick();
 }
 
+void StatusReporter::enableNavigationRate() {
+  if (navigation_rate_) return;
+  navigation_rate_ = std::make_unique<diagnostic_updater::HeaderlessTopicDiagnostic>(
+      "nav/odometry", updater_,
+      diagnostic_updater::FrequencyStatusParam(&min_rate_hz_, &max_rate_hz_, 0.1, 10));
+}
+
+void StatusReporter::tickNavigation() {
+  if (navigation_rate_) navigation_rate_->tick();
+}
+
 void StatusReporter::setInputProblem(const std::string& problem) {
   std::lock_guard<std::mutex> lock(mutex_);
   input_problem_ = problem;
@@ -54,6 +67,8 @@ void StatusReporter::produce(diagnostic_updater::DiagnosticStatusWrapper& stat) 
     stat.summary(DiagnosticStatus::ERROR, "no usable input: " + input_problem_);
   } else if (!have_status_) {
     stat.summary(DiagnosticStatus::WARN, "waiting for camera/image_raw + camera/camera_info");
+  } else if (last_.state == VoStatus::STATE_INITIALISING && !last_.processed) {
+    stat.summary(DiagnosticStatus::WARN, "not started: " + last_.message);
   } else if (last_.state == VoStatus::STATE_BAD_INPUT) {
     stat.summary(DiagnosticStatus::WARN, "bad input: " + last_.message);
   } else if (last_.state == VoStatus::STATE_LOST) {
@@ -75,8 +90,28 @@ void StatusReporter::produce(diagnostic_updater::DiagnosticStatusWrapper& stat) 
   stat.add("pipeline time last frame [ms]", last_.total_ms);
   stat.add("images received", last_.num_images);
   stat.add("images rejected (bad input)", last_.num_bad_images);
-  stat.add("imu messages (not fused)", last_.num_imu_msgs);
-  stat.add("altimeter messages (not fused)", last_.num_altimeter_msgs);
+  stat.add("mode", last_.mode);
+  stat.add("metric", last_.metric ? "yes" : "no");
+  stat.add("scale source", last_.scale_source);
+  stat.add("inertial (IMU factors hold the map)", last_.inertial ? "yes" : "no");
+  stat.add("initial state applied", last_.initial_state_applied ? "yes" : "no");
+  if (last_.has_velocity) {
+    auto vec = [](const boost::array<double, 3>& v) {
+      char text[96];
+      std::snprintf(text, sizeof(text), "%.6g %.6g %.6g", v[0], v[1], v[2]);
+      return std::string(text);
+    };
+    stat.add("velocity (world) [m/s]", vec(last_.velocity_world_mps));
+    stat.add("gyro bias [rad/s]", vec(last_.gyro_bias_radps));
+    stat.add("accelerometer bias [m/s^2]", vec(last_.accel_bias_mps2));
+  }
+  stat.add("imu messages", last_.num_imu_msgs);
+  stat.add("imu samples used", last_.num_imu_used);
+  stat.add("imu samples rejected", last_.num_imu_rejected);
+  stat.add("altimeter messages", last_.num_altimeter_msgs);
+  stat.add("altimeter ranges used", last_.num_altimeter_used);
+  stat.add("altimeter readings without a range", last_.num_altimeter_no_range);
+  stat.add("altimeter readings rejected", last_.num_altimeter_rejected);
   if (timed_frames_ > 0) {
     stat.add("mean pipeline time [ms]", pipeline_sum_ms_ / double(timed_frames_));
     stat.add("mean ROS-layer overhead [ms]", overhead_sum_ms_ / double(timed_frames_));

@@ -67,8 +67,25 @@ VoStatus toVoStatus(const FrameResult& r, const std_msgs::Header& header) {
   s.ba_ms = static_cast<float>(r.times.ba_ms);
   s.total_ms = static_cast<float>(r.times.total_ms);
   s.scale_confidence = static_cast<float>(r.scale_confidence);
+  s.scale_source = toString(r.scale_source);
+  s.metric = r.metric_scale;
+  s.inertial = r.inertial;
+  s.has_velocity = r.has_velocity;
+  if (r.has_velocity) {
+    for (int i = 0; i < 3; ++i) {
+      s.velocity_world_mps[i] = r.v_world_mps[i];
+      s.gyro_bias_radps[i] = r.imu_bias.gyro_radps[i];
+      s.accel_bias_mps2[i] = r.imu_bias.accel_mps2[i];
+    }
+  }
   s.message = r.message;
   return s;
+}
+
+std::string navigationMode(const VoConfig& config) {
+  if (config.imu.enabled)
+    return config.altimeter.enabled ? VoStatus::MODE_VISION_IMU_ALTIMETER : VoStatus::MODE_VISION_IMU;
+  return config.altimeter.enabled ? VoStatus::MODE_VISION_ALTIMETER : VoStatus::MODE_VISION;
 }
 
 VoStatus badInputStatus(const std::string& why, const std_msgs::Header& header) {
@@ -117,6 +134,82 @@ nav_msgs::Odometry toOdometry(const FrameResult& result, const Pose& T_world_chi
   } else {
     for (int i = 0; i < 6; ++i) odom.twist.covariance[i * 7] = 1e6;  // unknown
   }
+  return odom;
+}
+
+Eigen::Matrix<double, 9, 9> navCovariance(const FrameResult& result, const OdometrySigma& sigma,
+                                          double velocity_sigma_mps) {
+  const bool confident = result.hasPoseEstimate() || result.inertial;
+  if (result.has_covariance && result.covariance.allFinite()) {
+    const double inflation = confident ? 1.0 : sigma.lost_factor * sigma.lost_factor;
+    return result.covariance * inflation;
+  }
+  double factor = sigma.lost_factor;
+  if (result.hasPoseEstimate())
+    factor = std::sqrt(double(sigma.reference_inliers) / double(std::max(1, result.num_inliers)));
+  Eigen::Matrix<double, 9, 9> cov = Eigen::Matrix<double, 9, 9>::Zero();
+  cov.diagonal().segment<3>(0).setConstant(std::pow(sigma.position_m * factor, 2));
+  cov.diagonal().segment<3>(3).setConstant(std::pow(sigma.orientation_rad * factor, 2));
+  cov.diagonal().segment<3>(6).setConstant(std::pow(velocity_sigma_mps * factor, 2));
+  return cov;
+}
+
+bool differentiatePoses(const Pose& T_world_prev, const Pose& T_world_cur, double dt_s,
+                        Eigen::Vector3d* v_world, Eigen::Vector3d* w_body) {
+  if (!(dt_s > 0.0)) return false;
+  *v_world = (T_world_cur.translation() - T_world_prev.translation()) / dt_s;
+  const Eigen::AngleAxisd aa(T_world_prev.rotation().transpose() * T_world_cur.rotation());
+  *w_body = aa.axis() * aa.angle() / dt_s;
+  return true;
+}
+
+namespace {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+}  // namespace
+
+nav_msgs::Odometry toNavOdometry(const NavSolution& s, const Pose& T_cam_imu, const Pose& T_cam_child,
+                                 const std_msgs::Header& header, const std::string& child_frame_id) {
+  nav_msgs::Odometry odom;
+  odom.header = header;
+  odom.child_frame_id = child_frame_id;
+  const Pose T_world_child = s.T_world_cam * T_cam_child;
+  const Pose T_world_body = s.T_world_cam * T_cam_imu;
+  odom.pose.pose = toPoseMsg(T_world_child);
+  const Eigen::Matrix3d R_world_child = T_world_child.rotation();
+  const Eigen::Matrix3d R_world_body = T_world_body.rotation();
+  const Eigen::Matrix3d R_child_body = R_world_child.transpose() * R_world_body;
+  // Rigid body: the child origin moves with the body's velocity plus w x (lever arm), all in the world.
+  const Eigen::Vector3d w_world = R_world_body * s.w_body_radps;
+  const Eigen::Vector3d v_world_child =
+      s.v_world_mps + w_world.cross(T_world_child.translation() - T_world_body.translation());
+  const Eigen::Vector3d v_child = R_world_child.transpose() * v_world_child;
+  const Eigen::Vector3d w_child = R_child_body * s.w_body_radps;
+  odom.twist.twist.linear.x = v_child.x();
+  odom.twist.twist.linear.y = v_child.y();
+  odom.twist.twist.linear.z = v_child.z();
+  odom.twist.twist.angular.x = w_child.x();
+  odom.twist.twist.angular.y = w_child.y();
+  odom.twist.twist.angular.z = w_child.z();
+  // Pose covariance of the child: position error dp_child = dp_cam - [R_world_cam t_cam_child]x dtheta for a
+  // world-frame attitude error dtheta, which the child shares.
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
+  J.block<3, 3>(0, 3) = -skew(s.T_world_cam.rotation() * T_cam_child.translation());
+  const Eigen::Matrix<double, 6, 6> pose_cov = J * s.covariance.topLeftCorner<6, 6>() * J.transpose();
+  Eigen::Matrix<double, 6, 6> twist_cov = Eigen::Matrix<double, 6, 6>::Zero();
+  twist_cov.topLeftCorner<3, 3>() =
+      R_world_child.transpose() * s.covariance.bottomRightCorner<3, 3>() * R_world_child;
+  twist_cov.bottomRightCorner<3, 3>() = R_child_body * s.w_covariance * R_child_body.transpose();
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      odom.pose.covariance[r * 6 + c] = pose_cov(r, c);
+      odom.twist.covariance[r * 6 + c] = twist_cov(r, c);
+    }
   return odom;
 }
 

@@ -1,13 +1,18 @@
 /// @file vo_nodelet.cpp
-/// The nodelet planetary_vo/VisualOdometryNodelet: camera/image_raw + camera/camera_info in, the pipeline's
-/// FrameResult out as pose, odometry, path, map points, status, tf and diagnostics. Topics, frames and
-/// parameters: docs/ros_interface.md. Everything here is glue; the conversions are free functions
-/// (conversions.h, vo_conversions.h), the parameters come from ros_params.h, the diagnostics from
-/// status_reporter.h and the odometry from the ROS-free Pipeline.
+/// The nodelet planetary_vo/VisualOdometryNodelet: camera/image_raw + camera/camera_info, imu, altimeter and
+/// nav/initial_state in; the pipeline's FrameResult out as pose, odometry, path, map points, status, tf and
+/// diagnostics, and the metric navigation output nav/odometry at the image rate and, between images, at the
+/// IMU rate (Pipeline::navStateAt). Topics, frames and parameters: docs/ros_interface.md. Everything here is
+/// glue; the conversions are free functions (conversions.h, vo_conversions.h), the samples wait in
+/// SampleBuffers (sample_buffer.h) until the image they precede, the parameters come from ros_params.h, the
+/// diagnostics from status_reporter.h and every estimate from the ROS-free Pipeline.
 ///
 /// Threading: all callbacks use the nodelet's single-threaded node handles, so they never overlap; the
-/// dynamic_reconfigure knobs are handed over under a mutex anyway and applied between two frames.
+/// dynamic_reconfigure knobs are handed over under a mutex anyway and applied between two frames. No
+/// exception leaves a callback: every pipeline call is guarded, a refused sample is counted and reported in
+/// vo/status.
 
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -32,6 +37,7 @@
 #include "planetary_vo/VoStatus.h"
 #include "planetary_vo/ros_io/conversions.h"
 #include "planetary_vo/ros_io/ros_params.h"
+#include "planetary_vo/ros_io/sample_buffer.h"
 #include "planetary_vo/ros_io/status_reporter.h"
 #include "planetary_vo/ros_io/vo_conversions.h"
 #include "planetary_vo/vo/pipeline.h"
@@ -57,10 +63,17 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       NODELET_ERROR_STREAM(config_problem_ << "\nThe nodelet does not subscribe until it is reloaded.");
       return;
     }
+    mode_ = navigationMode(config_);
+    if (mode_ != VoStatus::MODE_VISION) reporter_->enableNavigationRate();
+    NODELET_INFO_STREAM("navigation mode " << mode_
+                                           << (params_.wait_for_initial_state
+                                                   ? ", waiting for the initial state on nav/initial_state"
+                                                   : ""));
     NODELET_DEBUG_STREAM("pipeline configuration:\n" << config_.dump());
     image_transport::ImageTransport it(nh);
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("vo/pose", 10);
     odom_pub_ = nh.advertise<nav_msgs::Odometry>("vo/odometry", 10);
+    nav_pub_ = nh.advertise<nav_msgs::Odometry>("nav/odometry", 100);
     path_pub_ = nh.advertise<nav_msgs::Path>("vo/path", 1);
     map_pub_ = nh.advertise<sensor_msgs::PointCloud2>("vo/map_points", 1);
     tracking_pub_ = it.advertise("vo/tracking_image", 1);
@@ -78,8 +91,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     reconfigure_->updateConfig(knobs);
     reconfigure_->setCallback(
         [this](VoReconfigureConfig& knobs, uint32_t level) { reconfigureCb(knobs, level); });
-    imu_sub_ = nh.subscribe("imu", 100, &VisualOdometryNodelet::imuCb, this);
-    altimeter_sub_ = nh.subscribe("altimeter", 10, &VisualOdometryNodelet::altimeterCb, this);
+    initial_state_sub_ = nh.subscribe("nav/initial_state", 1, &VisualOdometryNodelet::initialStateCb, this);
+    imu_sub_ = nh.subscribe("imu", params_.imu_queue_size, &VisualOdometryNodelet::imuCb, this,
+                            ros::TransportHints().tcpNoDelay());
+    altimeter_sub_ =
+        nh.subscribe("altimeter", params_.altimeter_queue_size, &VisualOdometryNodelet::altimeterCb, this);
     info_sub_ = nh.subscribe("camera/camera_info", 1, &VisualOdometryNodelet::infoOnlyCb, this);
     camera_sub_ =
         it.subscribeCamera("camera/image_raw", params_.queue_size, &VisualOdometryNodelet::imageCb, this);
@@ -109,28 +125,39 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
     if (!why.empty()) return reject(why, header);
 
-    const double t = image->header.stamp.toSec();
-    std::string note = frameGapNote(t);
+    const double t = timeOf(image->header.stamp);
+    std::string note = frameGapNote(image->header.stamp);
     last_stamp_ = image->header.stamp;
-    applyPendingConfig(t);
+    if (!started_ && !readyToStart(t, &why, &note)) return hold(why, image->header, t);
     const PinholeCamera camera = fromCameraInfo(*info);
-    if (!pipeline_) {
-      pipeline_ = makePipeline(config_, camera);
-    } else if (camera != pipeline_->camera()) {
-      NODELET_WARN_STREAM("camera changed to " << camera.width() << "x" << camera.height() << ", fx "
-                                               << camera.fx()
-                                               << ": the pipeline re-initialises from the held pose");
-      pipeline_->setCamera(camera);
-      note += (note.empty() ? "" : "; ") + std::string("camera_info changed: re-initialising");
-    }
-    const Clock::time_point process_start = Clock::now();
     FrameResult result;
+    Clock::duration process_time{};
     try {
+      if (!pipeline_) {
+        pipeline_ = makePipeline(config_, camera);
+        imu_buffer_.restart();
+        altimeter_buffer_.restart();
+      } else if (camera != pipeline_->camera()) {
+        NODELET_WARN_STREAM("camera changed to " << camera.width() << "x" << camera.height() << ", fx "
+                                                 << camera.fx()
+                                                 << ": the pipeline re-initialises from the held pose");
+        pipeline_->setCamera(camera);
+        note += (note.empty() ? "" : "; ") + std::string("camera_info changed: re-initialising");
+      }
+      // A configuration change rebuilds the pipeline: before anything is given to a fresh one, else once it
+      // has the samples up to this image (the rebuilt one is handed its state at t).
+      if (!started_) applyPendingConfig(t);
+      if (!started_ && pending_state_ && !applyInitialState(&why)) return hold(why, image->header, t);
+      giveSamplesUpTo(t);
+      if (started_) applyPendingConfig(t);
+      const Clock::time_point process_start = Clock::now();
       result = pipeline_->process(t, gray);
-    } catch (const std::invalid_argument& e) {
+      process_time = Clock::now() - process_start;
+    } catch (const std::exception& e) {
       return reject(std::string("pipeline rejected the image: ") + e.what(), header);
     }
-    const Clock::duration process_time = Clock::now() - process_start;
+    if (!started_) pending_state_.reset();  // consumed by the first image (applyInitialState)
+    started_ = true;
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);
     const bool published = result.processed && publishPose(result, header, child);
     if (result.processed && tracking_pub_.getNumSubscribers() > 0)
@@ -139,6 +166,132 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     status.ros_overhead_ms =
         std::chrono::duration<float, std::milli>(Clock::now() - start - process_time).count();
     publishStatus(status, published);
+  }
+
+  /// Seconds since the stream's epoch (the whole second of the first stamp seen): the pipeline's clock. Small
+  /// numbers keep the IMU's 5 ms steps exact in a double.
+  double timeOf(const ros::Time& stamp) {
+    if (!have_epoch_ && !stamp.isZero()) {
+      epoch_ = ros::Time(stamp.sec, 0);
+      have_epoch_ = true;
+    }
+    return toDatasetTime(epoch_, stamp);
+  }
+  const ros::Time& epochFor(const ros::Time& stamp) {
+    timeOf(stamp);
+    return epoch_;
+  }
+
+  /// Before the first image of a trajectory: whether this image may start it (the handed-over state fits its
+  /// stamp, or no state is awaited). *why says why not; *note gets what the status should mention anyway.
+  bool readyToStart(double t, std::string* why, std::string* note) {
+    if (pending_state_) {
+      const double t_state = pending_state_->header.stamp.isZero() ? t : timeOf(pending_state_->header.stamp);
+      if (t < t_state - params_.initial_state_tolerance_s) {
+        *why = "image " + std::to_string(t_state - t) +
+               " s before the stamp of the handed-over initial state: skipped";
+        return false;
+      }
+      if (t > t_state + params_.initial_state_tolerance_s) {
+        const std::string stale =
+            "initial state stamped " + std::to_string(t - t_state) +
+            " s before the first image (more than ~initial_state_tolerance): not applied";
+        NODELET_WARN_STREAM(stale);
+        *note += (note->empty() ? "" : "; ") + stale;
+        pending_state_.reset();
+      } else {
+        return true;
+      }
+    }
+    if (params_.wait_for_initial_state) {
+      *why = "waiting for the initial state on " + initial_state_sub_.getTopic() +
+             (note->empty() ? "" : " (" + *note + ")");
+      return false;
+    }
+    return true;
+  }
+
+  /// An image that does not start the trajectory yet: a status (initialising, not processed), and the samples
+  /// up to it forgotten (they precede the trajectory).
+  void hold(const std::string& why, const std_msgs::Header& image_header, double t) {
+    NODELET_INFO_STREAM_THROTTLE(5, why);
+    imu_buffer_.discardUpTo(t + config_.imu.time_offset_s);
+    altimeter_buffer_.discardUpTo(t);
+    VoStatus status = badInputStatus(why, image_header);
+    status.state = VoStatus::STATE_INITIALISING;
+    status.state_name = toString(TrackingState::kInitialising);
+    publishStatus(status, false);
+  }
+
+  /// The pending handover into the fresh pipeline (setInitialState). False, with *why, when it is refused.
+  bool applyInitialState(std::string* why) {
+    InitialState state;
+    if (!fromInitialStateMsg(*pending_state_, pipeline_->T_cam_imu(), &state, why)) {
+      pending_state_.reset();
+      return false;
+    }
+    try {
+      pipeline_->setInitialState(state.T_world_cam, state.v_world_imu_mps);
+    } catch (const std::exception& e) {
+      *why = std::string("initial state refused by the pipeline: ") + e.what();
+      pending_state_.reset();
+      return false;
+    }
+    if (!pending_state_->child_frame_id.empty() && !child_camera_frame_.empty() &&
+        pending_state_->child_frame_id != child_camera_frame_)
+      NODELET_WARN_STREAM("the initial state's child_frame_id is '"
+                          << pending_state_->child_frame_id << "', the camera frame '" << child_camera_frame_
+                          << "': it is taken as the pose of the camera optical frame");
+    initial_state_applied_ = true;
+    NODELET_INFO_STREAM("initial state applied: camera at "
+                        << state.T_world_cam.translation().transpose() << " m, IMU velocity "
+                        << state.v_world_imu_mps.transpose() << " m/s (" << params_.world_frame << ")");
+    return true;
+  }
+
+  /// Every buffered sample up to the image at t (IMU: on its own clock, t + imu.time_offset_s), in stamp
+  /// order.
+  void giveSamplesUpTo(double t) {
+    altimeter_buffer_.giveUpTo(t, [this](const AltimeterSample& s) { giveAltimeter(s); });
+    imu_buffer_.giveUpTo(t + config_.imu.time_offset_s, [this](const ImuSample& s) { giveImu(s); });
+  }
+
+  void giveImu(const ImuSample& s) {
+    try {
+      pipeline_->addImu(s);
+    } catch (const std::exception& e) {
+      return rejectImu(std::string("refused by the pipeline: ") + e.what());
+    }
+    ++counts_.num_imu_used;
+    last_gyro_radps_ = s.angular_velocity_radps;
+    have_gyro_ = true;
+    given_imu_.push_back(s);
+    while (given_imu_.front().timestamp_s < s.timestamp_s - kHistoryS) given_imu_.pop_front();
+  }
+
+  void giveAltimeter(const AltimeterSample& s) {
+    try {
+      pipeline_->addAltimeter(s);
+    } catch (const std::exception& e) {
+      return rejectAltimeter(std::string("refused by the pipeline: ") + e.what());
+    }
+    if (s.hasReturn())
+      ++counts_.num_altimeter_used;
+    else
+      ++counts_.num_altimeter_no_range;
+    given_altimeter_.push_back(s);
+    while (given_altimeter_.front().timestamp_s < s.timestamp_s - kHistoryS) given_altimeter_.pop_front();
+  }
+
+  void rejectImu(const std::string& why) {
+    ++counts_.num_imu_rejected;
+    NODELET_WARN_STREAM_THROTTLE(5, "IMU sample rejected: " << why);
+    if (imu_problem_.empty()) imu_problem_ = why;
+  }
+  void rejectAltimeter(const std::string& why) {
+    ++counts_.num_altimeter_rejected;
+    NODELET_WARN_STREAM_THROTTLE(5, "altimeter reading rejected: " << why);
+    if (altimeter_problem_.empty()) altimeter_problem_ = why;
   }
 
   /// Pose, odometry, path, map points and tf of a processed frame; false if the pose was not finite (held).
@@ -161,16 +314,17 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     Pose T_world_child = T_world_cam;
     if (!params_.base_frame.empty()) {
       try {
-        T_world_child =
-            T_world_cam *
-            fromTransformMsg(
-                tf_buffer_->lookupTransform(child_camera_frame_, params_.base_frame, ros::Time(0)).transform);
+        T_cam_child_ = fromTransformMsg(
+            tf_buffer_->lookupTransform(child_camera_frame_, params_.base_frame, ros::Time(0)).transform);
+        T_world_child = T_world_cam * T_cam_child_;
       } catch (const tf2::TransformException& e) {
         NODELET_WARN_THROTTLE(5, "no static transform %s -> %s (%s): not publishing",
                               child_camera_frame_.c_str(), params_.base_frame.c_str(), e.what());
+        nav_active_ = false;
         return false;
       }
     }
+    nav_child_ = child;
     const double dt = have_last_pose_ ? result.timestamp_s - last_pose_time_s_ : 0.0;
     if (result.hasPoseEstimate() && have_last_pose_ && dt > 0.0)
       speed_ = (T_world_cam.translation() - last_pose_.translation()).norm() / dt;
@@ -178,7 +332,12 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     const OdometrySigma sigma{params_.position_sigma_m, params_.orientation_sigma_rad,
                               params_.lost_sigma_factor, config_.pnp.min_inliers * 4};
     odom_pub_.publish(toOdometry(result, T_world_child, last_child_pose_, dt, header, child, sigma));
-    if (params_.publish_tf) tf_broadcaster_.sendTransform(toTransformStamped(T_world_child, header, child));
+    // One transform per stamp: between images the IMU-rate output may already have sent this one.
+    if (params_.publish_tf && header.stamp > last_tf_stamp_) {
+      tf_broadcaster_.sendTransform(toTransformStamped(T_world_child, header, child));
+      last_tf_stamp_ = header.stamp;
+    }
+    publishNavAtImage(result, T_world_cam, header);
     path_.header = header;
     path_.poses.push_back(toPoseStamped(T_world_child, header));
     if (params_.max_path_length > 0 && int(path_.poses.size()) > params_.max_path_length)
@@ -195,16 +354,100 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  /// nav/odometry of a processed frame (metric modes only), and whether the IMU-rate output may follow it.
+  void publishNavAtImage(const FrameResult& r, const Pose& T_world_cam, const std_msgs::Header& header) {
+    const OdometrySigma sigma{params_.position_sigma_m, params_.orientation_sigma_rad,
+                              params_.lost_sigma_factor, config_.pnp.min_inliers * 4};
+    nav_covariance_ = navCovariance(r, sigma, params_.velocity_sigma_mps);
+    // Between images only from a state the pipeline vouches for: a pose estimate or IMU factors holding the
+    // map, never from the held pose of an initialising or lost chain.
+    nav_active_ = r.metric_scale && r.has_velocity && (r.hasPoseEstimate() || r.inertial);
+    if (!r.metric_scale) {
+      have_nav_prev_ = false;
+      return;
+    }
+    NavSolution s;
+    s.T_world_cam = T_world_cam;
+    s.covariance = nav_covariance_;
+    if (r.has_velocity) {
+      T_cam_body_ = pipeline_->T_cam_imu();
+      s.v_world_mps = anchor_.scale * (anchor_.R_gt_est * r.v_world_mps);
+      s.w_body_radps =
+          have_gyro_ ? Eigen::Vector3d(last_gyro_radps_ - r.imu_bias.gyro_radps) : Eigen::Vector3d::Zero();
+      s.w_covariance = gyroCovariance();
+    } else {  // vision + altimeter: the camera's motion since the previous metric frame
+      T_cam_body_ = Pose::Identity();
+      const double dt = r.timestamp_s - nav_prev_time_s_;
+      Eigen::Vector3d v, w;
+      if (have_nav_prev_ && differentiatePoses(nav_prev_pose_, T_world_cam, dt, &v, &w)) {
+        s.v_world_mps = v;
+        s.w_body_radps = w;
+        s.covariance.bottomRightCorner<3, 3>() =
+            2.0 * s.covariance.topLeftCorner<3, 3>() / (dt * dt);  // two position errors over dt
+        s.w_covariance = 2.0 * s.covariance.block<3, 3>(3, 3) / (dt * dt);
+      } else {
+        s.covariance.bottomRightCorner<3, 3>() = kUnknownVariance * Eigen::Matrix3d::Identity();
+        s.w_covariance = kUnknownVariance * Eigen::Matrix3d::Identity();
+      }
+    }
+    publishNav(s, header.stamp, false);
+    nav_prev_pose_ = T_world_cam;
+    nav_prev_time_s_ = r.timestamp_s;
+    have_nav_prev_ = true;
+  }
+
+  /// Between images: nav/odometry and tf from the last frame's inertial state moved on to the IMU sample's
+  /// time (Pipeline::navStateAt), with the last frame's covariance.
+  void publishNavAtImu(const ros::Time& imu_stamp) {
+    const ros::Time stamp = imu_stamp - ros::Duration(config_.imu.time_offset_s);
+    if (stamp <= last_nav_stamp_) return;
+    std::optional<NavState> state;
+    try {
+      state = pipeline_->navStateAt(timeOf(stamp));
+    } catch (const std::exception& e) {
+      NODELET_WARN_STREAM_THROTTLE(5, "Pipeline::navStateAt failed: " << e.what());
+      return;
+    }
+    if (!state || !isFinite(*state)) return;
+    NavSolution s;
+    s.T_world_cam = anchor_.transformPose(state->T_world_body * pipeline_->T_cam_imu().inverse());
+    s.v_world_mps = anchor_.scale * (anchor_.R_gt_est * state->v_world_mps);
+    s.w_body_radps = last_gyro_radps_ - state->gyro_bias_radps;
+    s.covariance = nav_covariance_;
+    s.w_covariance = gyroCovariance();
+    publishNav(s, stamp, true);
+  }
+
+  void publishNav(const NavSolution& s, const ros::Time& stamp, bool send_tf) {
+    const std_msgs::Header header = makeHeader(stamp, params_.world_frame);
+    nav_pub_.publish(toNavOdometry(s, T_cam_body_, T_cam_child_, header, nav_child_));
+    reporter_->tickNavigation();
+    if (stamp > last_nav_stamp_) last_nav_stamp_ = stamp;
+    if (send_tf && params_.publish_tf && stamp > last_tf_stamp_) {
+      tf_broadcaster_.sendTransform(toTransformStamped(s.T_world_cam * T_cam_child_, header, nav_child_));
+      last_tf_stamp_ = stamp;
+    }
+  }
+
+  /// Covariance of one gyro sample: the message's when it gives one, else the configured noise density at
+  /// the measured sample rate.
+  Eigen::Matrix3d gyroCovariance() const {
+    if (have_gyro_covariance_) return gyro_covariance_;
+    const double rate_hz = imu_period_s_ > 0.0 ? 1.0 / imu_period_s_ : 200.0;
+    const double sigma = config_.imu.gyro_noise_density_radps_per_sqrt_hz;
+    return sigma * sigma * rate_hz * Eigen::Matrix3d::Identity();
+  }
+
   std::string childFrame(const std::string& image_frame) {
     child_camera_frame_ = params_.camera_frame.empty() ? image_frame : params_.camera_frame;
     return params_.base_frame.empty() ? child_camera_frame_ : params_.base_frame;
   }
 
   /// A note when the gap to the previous image is much longer than the usual period (dropped frames).
-  std::string frameGapNote(double t) {
+  std::string frameGapNote(const ros::Time& stamp) {
     std::string note;
     if (last_stamp_) {
-      const double dt = t - last_stamp_->toSec();
+      const double dt = (stamp - *last_stamp_).toSec();
       if (period_s_ > 0.0 && dt > params_.max_frame_gap_factor * period_s_)
         note = "about " + std::to_string(int(dt / period_s_ + 0.5) - 1) + " frames dropped (gap " +
                std::to_string(dt) + " s, period " + std::to_string(period_s_) + " s)";
@@ -224,7 +467,29 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     status.num_images = counts_.num_images;
     status.num_bad_images = counts_.num_bad_images;
     status.num_imu_msgs = counts_.num_imu_msgs;
+    status.num_imu_used = counts_.num_imu_used;
+    status.num_imu_rejected = counts_.num_imu_rejected;
     status.num_altimeter_msgs = counts_.num_altimeter_msgs;
+    status.num_altimeter_used = counts_.num_altimeter_used;
+    status.num_altimeter_no_range = counts_.num_altimeter_no_range;
+    status.num_altimeter_rejected = counts_.num_altimeter_rejected;
+    status.mode = mode_;
+    status.initial_state_applied = initial_state_applied_;
+    if (status.scale_source.empty()) status.scale_source = toString(ScaleSource::kNone);
+    // Rejected samples since the last status: the first reason of each stream.
+    auto append = [&status](const std::string& text) {
+      status.message += (status.message.empty() ? "" : "; ") + text;
+    };
+    if (!imu_problem_.empty())
+      append("IMU sample rejected: " + imu_problem_ + " (" + std::to_string(counts_.num_imu_rejected) +
+             " so far)");
+    if (!altimeter_problem_.empty())
+      append("altimeter reading rejected: " + altimeter_problem_ + " (" +
+             std::to_string(counts_.num_altimeter_rejected) + " so far)");
+    if (!initial_state_problem_.empty()) append(initial_state_problem_);
+    imu_problem_.clear();
+    altimeter_problem_.clear();
+    initial_state_problem_.clear();
     status.header.frame_id = params_.world_frame;
     reporter_->update(status, published_odometry);
     status_pub_.publish(status);
@@ -236,8 +501,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     return std::make_unique<Pipeline>(config, camera);
   }
 
-  /// Between two frames: a changed configuration rebuilds the pipeline, attached to the last pose (the new
-  /// pipeline starts at its own origin; its scale is bridged with the last speed, see publishPose()).
+  /// Between two frames (the samples up to the image at t given): a changed configuration rebuilds the
+  /// pipeline. With an inertial state (fused modes) the rebuilt pipeline is handed the old one's state at t
+  /// (Pipeline::navStateAt) and the recent samples, so it continues in the same metric world. Otherwise it is
+  /// attached to the last pose (it starts at its own origin; its scale is bridged with the last speed, see
+  /// publishPose()).
   void applyPendingConfig(double t) {
     std::optional<VoConfig> pending;
     {
@@ -248,7 +516,25 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     config_ = *pending;
     if (!pipeline_) return;
     const PinholeCamera camera = pipeline_->camera();
+    std::optional<NavState> state;
+    if (started_) state = pipeline_->navStateAt(t);
     pipeline_ = makePipeline(config_, camera);
+    const bool handed_over = state && isFinite(*state) && anchor_.scale == 1.0 && !anchor_scale_pending_;
+    if (handed_over)
+      pipeline_->setInitialState(state->T_world_body * pipeline_->T_cam_imu().inverse(), state->v_world_mps);
+    // The recent samples, which the old pipeline had: the new one starts at t.
+    for (const ImuSample& s : given_imu_)
+      if (s.timestamp_s >= t + config_.imu.time_offset_s - config_.imu.max_gap_s) pipeline_->addImu(s);
+    for (const AltimeterSample& s : given_altimeter_)
+      if (s.timestamp_s >= t - config_.altimeter.max_time_offset_s) pipeline_->addAltimeter(s);
+    if (handed_over) {
+      NODELET_INFO(
+          "reconfigured: num_features %d, motion model %s, bundle adjustment %s; the inertial state "
+          "at the last image handed to the rebuilt pipeline",
+          config_.detector.num_features, toString(config_.motion.model),
+          config_.bundle_adjustment.enabled ? "on" : "off");
+      return;
+    }
     if (have_last_pose_) {
       anchor_ = Sim3Transform();
       anchor_.R_gt_est = last_pose_.rotation();
@@ -278,7 +564,17 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   }
 
   bool resetCb(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-    if (pipeline_) pipeline_->reset();
+    // A fresh pipeline at the next image: no handed-over state survives a reset (a new one may be sent).
+    pipeline_.reset();
+    started_ = false;
+    initial_state_applied_ = false;
+    nav_active_ = have_nav_prev_ = false;
+    last_nav_stamp_ = last_tf_stamp_ = ros::Time();
+    imu_buffer_.restart();
+    altimeter_buffer_.restart();
+    given_imu_.clear();
+    given_altimeter_.clear();
+    have_gyro_ = false;
     anchor_ = Sim3Transform();
     anchor_scale_pending_ = false;
     have_last_pose_ = false;
@@ -288,7 +584,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     path_.poses.clear();
     counts_ = VoStatus();
     res.success = true;
-    res.message = "visual odometry reset: the next image starts a new trajectory at the origin";
+    res.message =
+        "visual odometry reset: the next image starts a new trajectory at the origin (or at a state handed "
+        "over on nav/initial_state since)";
     NODELET_INFO_STREAM(res.message);
     return true;
   }
@@ -312,8 +610,93 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   }
 
   void infoOnlyCb(const sensor_msgs::CameraInfoConstPtr&) { ++info_count_; }
-  void imuCb(const sensor_msgs::ImuConstPtr&) { ++counts_.num_imu_msgs; }
-  void altimeterCb(const sensor_msgs::RangeConstPtr&) { ++counts_.num_altimeter_msgs; }
+
+  /// Buffered until the image it precedes; once the pipeline has an inertial state it vouches for, given at
+  /// once and followed by the IMU-rate nav/odometry.
+  void imuCb(const sensor_msgs::ImuConstPtr& msg) {
+    ++counts_.num_imu_msgs;
+    if (!config_.imu.enabled || !config_problem_.empty()) return;
+    try {
+      ImuSample sample;
+      std::string why;
+      if (!fromImu(*msg, epochFor(msg->header.stamp), &sample, &why)) return rejectImu(why);
+      const std::optional<double> last_given = imu_buffer_.lastGiven();
+      switch (imu_buffer_.insert(sample)) {
+        case SampleBuffer<ImuSample>::Insert::kDuplicate:
+          return rejectImu("duplicate stamp " + std::to_string(msg->header.stamp.toSec()));
+        case SampleBuffer<ImuSample>::Insert::kTooOld:
+          return rejectImu("out of order: " + std::to_string(*last_given - sample.timestamp_s) +
+                           " s older than a sample already given to the pipeline");
+        case SampleBuffer<ImuSample>::Insert::kBuffered:
+          break;
+      }
+      if (have_last_imu_time_ && sample.timestamp_s > last_imu_time_s_) {
+        const double dt = sample.timestamp_s - last_imu_time_s_;
+        imu_period_s_ = imu_period_s_ > 0.0 ? 0.95 * imu_period_s_ + 0.05 * dt : dt;
+      }
+      last_imu_time_s_ = std::max(last_imu_time_s_, sample.timestamp_s);
+      have_last_imu_time_ = true;
+      const auto& c = msg->angular_velocity_covariance;
+      have_gyro_covariance_ = c[0] > 0.0 && c[4] > 0.0 && c[8] > 0.0;
+      if (have_gyro_covariance_) gyro_covariance_ = Eigen::Map<const Eigen::Matrix3d>(c.data()).transpose();
+      if (pipeline_ && started_ && nav_active_) {
+        imu_buffer_.giveAll([this](const ImuSample& s) { giveImu(s); });
+        publishNavAtImu(msg->header.stamp);
+      }
+    } catch (const std::exception& e) {
+      rejectImu(std::string("unexpected error: ") + e.what());
+    }
+  }
+
+  /// Buffered until the image it precedes (the pipeline reads the altimeter causally per image).
+  void altimeterCb(const sensor_msgs::RangeConstPtr& msg) {
+    ++counts_.num_altimeter_msgs;
+    if (!config_.altimeter.enabled || !config_problem_.empty()) return;
+    try {
+      AltimeterSample sample;
+      std::string why;
+      if (fromRange(*msg, epochFor(msg->header.stamp), &sample, &why) == RangeReading::kInvalid)
+        return rejectAltimeter(why);
+      const std::optional<double> last_given = altimeter_buffer_.lastGiven();
+      switch (altimeter_buffer_.insert(sample)) {
+        case SampleBuffer<AltimeterSample>::Insert::kDuplicate:
+          return rejectAltimeter("duplicate stamp " + std::to_string(msg->header.stamp.toSec()));
+        case SampleBuffer<AltimeterSample>::Insert::kTooOld:
+          return rejectAltimeter("out of order: " + std::to_string(*last_given - sample.timestamp_s) +
+                                 " s older than a reading already given to the pipeline");
+        case SampleBuffer<AltimeterSample>::Insert::kBuffered:
+          break;
+      }
+    } catch (const std::exception& e) {
+      rejectAltimeter(std::string("unexpected error: ") + e.what());
+    }
+  }
+
+  /// The guidance handover: kept until the first image of the next trajectory (now, or after vo/reset).
+  void initialStateCb(const nav_msgs::OdometryConstPtr& msg) {
+    try {
+      std::string why;
+      InitialState checked;
+      if (!msg->header.frame_id.empty() && msg->header.frame_id != params_.world_frame)
+        why = "initial state in frame '" + msg->header.frame_id + "', but ~world_frame is '" +
+              params_.world_frame + "': ignored";
+      else
+        fromInitialStateMsg(*msg, Pose::Identity(), &checked, &why);
+      if (!why.empty()) {
+        NODELET_ERROR_STREAM(why);
+        initial_state_problem_ = why;
+        return;
+      }
+      timeOf(msg->header.stamp);
+      pending_state_ = *msg;
+      if (started_)
+        NODELET_WARN_STREAM("initial state received while a trajectory runs: it applies after vo/reset");
+      else
+        NODELET_INFO_STREAM("initial state received, stamp " << msg->header.stamp);
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM("initial state: " << e.what());
+    }
+  }
 
   NodeletParams params_;
   VoConfig config_;
@@ -323,8 +706,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   image_transport::CameraSubscriber camera_sub_;
   image_transport::Publisher tracking_pub_;
-  ros::Subscriber info_sub_, imu_sub_, altimeter_sub_;
-  ros::Publisher pose_pub_, odom_pub_, path_pub_, map_pub_, status_pub_;
+  ros::Subscriber info_sub_, imu_sub_, altimeter_sub_, initial_state_sub_;
+  ros::Publisher pose_pub_, odom_pub_, nav_pub_, path_pub_, map_pub_, status_pub_;
   ros::ServiceServer reset_srv_;
   ros::WallTimer watchdog_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
@@ -350,6 +733,37 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   bool have_last_pose_ = false;
   nav_msgs::Path path_;
   std::vector<MapPointView> map_points_;
+
+  // Fusion inputs (buffers and conversions only: every estimate is the pipeline's).
+  static constexpr double kHistoryS = 1.0;         ///< samples kept after they were given (reconfigure)
+  static constexpr double kUnknownVariance = 1e6;  ///< a covariance entry nothing constrains
+  std::string mode_ = VoStatus::MODE_VISION;
+  ros::Time epoch_;  ///< the pipeline's clock: seconds since this stamp
+  bool have_epoch_ = false;
+  bool started_ = false;  ///< the pipeline has processed an image of this trajectory
+  std::optional<nav_msgs::Odometry> pending_state_;  ///< nav/initial_state not applied yet
+  bool initial_state_applied_ = false;
+  SampleBuffer<ImuSample> imu_buffer_;
+  SampleBuffer<AltimeterSample> altimeter_buffer_;
+  std::deque<ImuSample> given_imu_;              ///< the last kHistoryS given to the pipeline
+  std::deque<AltimeterSample> given_altimeter_;  ///< likewise
+  std::string imu_problem_, altimeter_problem_, initial_state_problem_;  ///< since the last status
+  Eigen::Vector3d last_gyro_radps_ = Eigen::Vector3d::Zero();            ///< latest gyro sample given
+  bool have_gyro_ = false;
+  Eigen::Matrix3d gyro_covariance_ = Eigen::Matrix3d::Identity();
+  bool have_gyro_covariance_ = false;
+  double imu_period_s_ = 0.0, last_imu_time_s_ = 0.0;
+  bool have_last_imu_time_ = false;
+  // Navigation output.
+  bool nav_active_ = false;  ///< the last frame allows the IMU-rate output
+  Eigen::Matrix<double, 9, 9> nav_covariance_ = Eigen::Matrix<double, 9, 9>::Identity();
+  Pose T_cam_body_ = Pose::Identity();   ///< IMU in the camera (identity without the IMU)
+  Pose T_cam_child_ = Pose::Identity();  ///< output child frame in the camera (~base_frame)
+  std::string nav_child_;
+  Pose nav_prev_pose_ = Pose::Identity();
+  double nav_prev_time_s_ = 0.0;
+  bool have_nav_prev_ = false;
+  ros::Time last_nav_stamp_, last_tf_stamp_;
 };
 
 }  // namespace planetary_vo::ros_io

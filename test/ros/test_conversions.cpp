@@ -1,4 +1,5 @@
-/// Conversions between core types and ROS messages (no master).
+/// Conversions between core types and ROS messages (no master), both ways: the player's outputs and the
+/// nodelet's inputs (IMU, Range after REP-117, the initial-state handover).
 
 #include <cmath>
 #include <limits>
@@ -172,6 +173,131 @@ TEST(Conversions, NoReturnIsPlusInfinity) {
   s.slant_range_m = std::numeric_limits<double>::infinity();
   const sensor_msgs::Range msg = toRange(s, makeHeader(ros::Time(4, 0), "camera_optical"), AltimeterSpec());
   EXPECT_TRUE(std::isinf(msg.range) && msg.range > 0);
+}
+
+TEST(Conversions, ImuMessageBecomesASampleOnTheEpochClock) {
+  ImuSample s;
+  s.angular_velocity_radps = Eigen::Vector3d(0.1, -0.2, 0.3);
+  s.specific_force_mps2 = Eigen::Vector3d(0.0, 0.5, -1.62);
+  const ros::Time epoch(1000000000, 0);
+  const sensor_msgs::Imu msg = toImu(s, makeHeader(toStamp(epoch, 2.005), "imu"));
+  ImuSample back;
+  std::string why;
+  ASSERT_TRUE(fromImu(msg, epoch, &back, &why)) << why;
+  EXPECT_NEAR(back.timestamp_s, 2.005, 1e-9);
+  EXPECT_EQ(back.angular_velocity_radps, s.angular_velocity_radps);
+  EXPECT_EQ(back.specific_force_mps2, s.specific_force_mps2);
+  EXPECT_TRUE(why.empty());
+}
+
+TEST(Conversions, UnusableImuMessagesAreRefusedWithAReason) {
+  const ros::Time epoch(100, 0);
+  sensor_msgs::Imu good = toImu(ImuSample(), makeHeader(ros::Time(101, 0), "imu"));
+  ImuSample out;
+  std::string why;
+  sensor_msgs::Imu m = good;
+  m.angular_velocity.y = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(fromImu(m, epoch, &out, &why));
+  EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
+  m = good;
+  m.linear_acceleration.z = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(fromImu(m, epoch, &out, &why));
+  m = good;
+  m.header.stamp = ros::Time();
+  EXPECT_FALSE(fromImu(m, epoch, &out, &why));
+  EXPECT_NE(why.find("zero stamp"), std::string::npos) << why;
+  m = good;
+  m.angular_velocity_covariance[0] = -1.0;  // REP-145: no angular velocity in this message
+  EXPECT_FALSE(fromImu(m, epoch, &out, &why));
+  EXPECT_NE(why.find("angular velocity"), std::string::npos) << why;
+  m = good;
+  m.linear_acceleration_covariance[0] = -1.0;
+  EXPECT_FALSE(fromImu(m, epoch, &out, &why));
+  EXPECT_NE(why.find("linear acceleration"), std::string::npos) << why;
+  // The orientation is not used: "no orientation" (-1) is the normal case.
+  EXPECT_TRUE(fromImu(good, epoch, &out, &why));
+  EXPECT_EQ(good.orientation_covariance[0], -1.0);
+}
+
+TEST(Conversions, RangeFollowsRep117) {
+  const ros::Time epoch(100, 0);
+  AltimeterSpec spec;
+  spec.min_range_m = 10.0;
+  spec.max_range_m = 2000.0;
+  auto reading = [&](double range, AltimeterSample* out, std::string* why) {
+    AltimeterSample s;
+    s.slant_range_m = range;
+    return fromRange(toRange(s, makeHeader(ros::Time(100, 500000000), "alt"), spec), epoch, out, why);
+  };
+  AltimeterSample out;
+  std::string why;
+  EXPECT_EQ(reading(523.5, &out, &why), RangeReading::kRange);
+  EXPECT_EQ(out.slant_range_m, 523.5);
+  EXPECT_NEAR(out.timestamp_s, 0.5, 1e-9);
+  EXPECT_TRUE(out.hasReturn());
+  const double inf = std::numeric_limits<double>::infinity();
+  // +Inf: no return; -Inf: too close to measure; outside the limits: discarded. All "no range", given to
+  // the pipeline as its "no return" (+Inf), so it never falls back on an older reading.
+  for (double r : {inf, -inf, 5.0, 2500.0}) {
+    out.slant_range_m = 1.0;
+    EXPECT_EQ(reading(r, &out, &why), RangeReading::kNoRange) << r;
+    EXPECT_FALSE(out.hasReturn()) << r;
+    EXPECT_FALSE(why.empty()) << r;
+  }
+  EXPECT_EQ(reading(inf, &out, &why), RangeReading::kNoRange);
+  EXPECT_NE(why.find("no return"), std::string::npos) << why;
+  EXPECT_EQ(reading(-inf, &out, &why), RangeReading::kNoRange);
+  EXPECT_NE(why.find("too close"), std::string::npos) << why;
+  // NaN: an erroneous reading; a negative finite range is not a range either.
+  EXPECT_EQ(reading(std::numeric_limits<double>::quiet_NaN(), &out, &why), RangeReading::kInvalid);
+  EXPECT_EQ(reading(-3.0, &out, &why), RangeReading::kInvalid);
+  EXPECT_EQ(std::string(toString(RangeReading::kInvalid)), "invalid");
+  // Limits left 0 by a driver are not applied.
+  AltimeterSample s;
+  s.slant_range_m = 7.0;
+  sensor_msgs::Range m = toRange(s, makeHeader(ros::Time(101, 0), "alt"), spec);
+  m.min_range = m.max_range = 0.0f;
+  EXPECT_EQ(fromRange(m, epoch, &out, &why), RangeReading::kRange);
+  m.header.stamp = ros::Time();
+  EXPECT_EQ(fromRange(m, epoch, &out, &why), RangeReading::kInvalid);
+}
+
+TEST(Conversions, InitialStateRoundTripAndLeverArm) {
+  const Pose T_world_cam = somePose();
+  const Eigen::Vector3d v_cam(6.0, 75.0, -14.0);
+  const nav_msgs::Odometry msg =
+      toInitialStateMsg(T_world_cam, v_cam, makeHeader(ros::Time(7, 0), "world"), "camera_optical");
+  EXPECT_EQ(msg.header.frame_id, "world");
+  EXPECT_EQ(msg.child_frame_id, "camera_optical");
+  EXPECT_EQ(msg.twist.twist.linear.y, 75.0);
+  InitialState state;
+  std::string why;
+  ASSERT_TRUE(fromInitialStateMsg(msg, Pose::Identity(), &state, &why)) << why;
+  EXPECT_TRUE(state.T_world_cam.isApprox(T_world_cam, 1e-12));
+  EXPECT_TRUE(state.v_world_imu_mps.isApprox(v_cam, 1e-12));
+  // An IMU 0.5 m along the camera's x axis on a body turning about the world z axis at 0.2 rad/s:
+  // v_imu = v_cam + w x (R_world_cam * t_cam_imu).
+  Pose T_cam_imu = Pose::Identity();
+  T_cam_imu.translation() = Eigen::Vector3d(0.5, 0.0, 0.0);
+  nav_msgs::Odometry turning = msg;
+  turning.twist.twist.angular.z = 0.2;
+  ASSERT_TRUE(fromInitialStateMsg(turning, T_cam_imu, &state, &why)) << why;
+  const Eigen::Vector3d expected =
+      v_cam + Eigen::Vector3d(0, 0, 0.2).cross(T_world_cam.rotation() * Eigen::Vector3d(0.5, 0, 0));
+  EXPECT_TRUE(state.v_world_imu_mps.isApprox(expected, 1e-12));
+  // Refused: non-finite pose or velocity, a quaternion that is not a rotation.
+  nav_msgs::Odometry bad = msg;
+  bad.twist.twist.linear.x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(fromInitialStateMsg(bad, Pose::Identity(), &state, &why));
+  EXPECT_NE(why.find("velocity"), std::string::npos) << why;
+  bad = msg;
+  bad.pose.pose.position.z = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(fromInitialStateMsg(bad, Pose::Identity(), &state, &why));
+  bad = msg;
+  bad.pose.pose.orientation.w = bad.pose.pose.orientation.x = bad.pose.pose.orientation.y =
+      bad.pose.pose.orientation.z = 0.0;
+  EXPECT_FALSE(fromInitialStateMsg(bad, Pose::Identity(), &state, &why));
+  EXPECT_NE(why.find("quaternion"), std::string::npos) << why;
 }
 
 TEST(Conversions, ImageMono8AndMono16) {

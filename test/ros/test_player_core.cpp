@@ -385,6 +385,67 @@ TEST(PlayerBag, SyntheticBagCarriesImuAndAltimeter) {
   checkBag(bag, dataset);
 }
 
+TEST(PlayerCore, InitialStateIsTheGroundTruthAtTheFirstImagePlayed) {
+  const std::string dir = outputDir("player_core_initial_state") + "/dataset";
+  const PinholeCamera camera(32, 24, 30.0, 30.0, 15.5, 11.5);
+  Pose T0 = Pose::Identity(), T1 = Pose::Identity();
+  T0.translation() = Eigen::Vector3d(-250.0, -2400.0, 650.0);
+  T1.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T1.translation() = Eigen::Vector3d(-249.4, -2392.5, 648.6);
+  {
+    DatasetWriter writer(dir, camera);
+    writer.addFrame(0.0, cv::Mat(24, 32, CV_8UC1, cv::Scalar(80)), T0);
+    writer.addFrame(0.1, cv::Mat(24, 32, CV_8UC1, cv::Scalar(90)), T1);
+    for (int i = 0; i <= 20; ++i) {
+      GroundTruthState state;
+      state.timestamp_s = 0.005 * i;
+      state.T_world_body = i < 20 ? T0 : T1;
+      state.velocity_world_mps = Eigen::Vector3d(6.0, 75.0 - i, -14.0);
+      writer.addGroundTruthState(state);
+    }
+  }
+  const Dataset dataset = Dataset::open(dir);
+  PlayerOptions options;
+  options.start_index = 1;
+  options.world_frame = "moon";
+  const Player player(dataset, options);
+  std::string why;
+  const std::optional<nav_msgs::Odometry> state = initialStateMessage(player, &why);
+  ASSERT_TRUE(state) << why;
+  EXPECT_EQ(state->header.stamp, player.stampOf(0.1));
+  EXPECT_EQ(state->header.frame_id, "moon");
+  EXPECT_EQ(state->child_frame_id, "camera_optical");
+  expectPoseNear(state->pose.pose, T1, "the camera pose at image 1");
+  EXPECT_EQ(state->twist.twist.linear.y, 55.0);  // groundtruth_state.txt at 0.1 s, world frame
+  EXPECT_EQ(state->twist.twist.linear.z, -14.0);
+
+  // In a bag (player --bag --initial-state): the first message, latched for rosbag play.
+  const std::string bag_path = outputDir("player_core_initial_state_bag") + "/with_state.bag";
+  options.publish_initial_state = true;
+  writeBag(dataset, options, bag_path);
+  rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
+  rosbag::View view(bag);
+  ASSERT_GT(view.size(), 0u);
+  rosbag::View::iterator it = view.begin();
+  const rosbag::MessageInstance& first = *it;
+  EXPECT_EQ(first.getTopic(), "/nav/initial_state");  // 1 ms before the first image: played first
+  EXPECT_EQ(first.getTime(), player.stampOf(0.1) - ros::Duration(0.001));
+  ASSERT_TRUE(first.getConnectionHeader());
+  EXPECT_EQ(first.getConnectionHeader()->at("latching"), "1");
+  const auto msg = first.instantiate<nav_msgs::Odometry>();
+  ASSERT_TRUE(msg);
+  EXPECT_EQ(msg->twist.twist.linear.y, 55.0);
+
+  // No ground-truth state: no handover (and the bag writer refuses rather than inventing one).
+  const Dataset synthetic = openSynthetic("player_core_no_state");
+  EXPECT_FALSE(initialStateMessage(Player(synthetic, PlayerOptions()), &why));
+  EXPECT_NE(why.find("groundtruth_state"), std::string::npos) << why;
+  PlayerOptions with_state;
+  with_state.publish_initial_state = true;
+  EXPECT_THROW(writeBag(synthetic, with_state, outputDir("player_core_no_state") + "/x.bag"),
+               std::runtime_error);
+}
+
 TEST(PlayerCommandLine, ParsesOptionsAndRejectsUnknownOnes) {
   const PlayerCommandLine cl = parsePlayerCommandLine(
       {"--dataset", "/d", "--bag", "o.bag", "--start", "3", "--time-offset", "12.5", "--world-frame", "moon",
@@ -400,6 +461,9 @@ TEST(PlayerCommandLine, ParsesOptionsAndRejectsUnknownOnes) {
   EXPECT_EQ(options.camera_frame, "cam");
   EXPECT_EQ(options.ground_truth_frame, "truth");
   EXPECT_FALSE(options.publish_path);
+  EXPECT_FALSE(options.publish_initial_state);
+  applyCommandLine(parsePlayerCommandLine({"--initial-state"}), &options);
+  EXPECT_TRUE(options.publish_initial_state);
 
   PlayerOptions untouched;
   applyCommandLine(parsePlayerCommandLine({}), &untouched);

@@ -9,11 +9,20 @@
 /// part 1).
 ///
 /// Cases (~case): encoding, info_missing, size_mismatch, bad_intrinsics, black, saturated, stamps, dropped,
-/// resolution.
+/// resolution, and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
+/// the dataset's IMU and altimeter streams published before each image (lock step: the nodelet has queued
+/// them before the image is sent), the initial state handed over, and bad samples in place of part 2's
+/// image: non-finite, REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
+/// +-Inf ranges; and a 0.2 s gap in the IMU stream before the last 4 images. Checks besides: every bad
+/// sample counted (exactly), the status says so, every good sample used, nav/odometry at the IMU rate after
+/// the bad samples, the gap reported, metric nav/odometry after it.
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -22,6 +31,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <image_transport/image_transport.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/image_encodings.h>
 
@@ -29,6 +39,7 @@
 
 #include "planetary_vo/VoStatus.h"
 #include "planetary_vo/dataset/dataset.h"
+#include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/ros_io/conversions.h"
 #include "test_ros_helpers.h"
 
@@ -51,18 +62,88 @@ class VoBadInputTest : public ::testing::Test {
     info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera/camera_info", 10);
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoBadInputTest::onStatus, this));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoBadInputTest::onPose, this));
+    fused_ = case_ == "samples";
+    if (fused_) {
+      imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 10000);
+      altimeter_pub_ = nh_.advertise<sensor_msgs::Range>("altimeter", 1000);
+      initial_state_pub_ = nh_.advertise<nav_msgs::Odometry>("nav/initial_state", 1, true);
+      subs_.push_back(nh_.subscribe("nav/odometry", 10000, &VoBadInputTest::onNav, this));
+    }
     // The outputs' connections as the manager sees them: a status published before it has accepted ours is
     // lost, and send() would wait for it in vain (see allConnected()).
-    const std::string manager = pnh.param<std::string>("manager", "/vo_manager");
+    manager_ = pnh.param<std::string>("manager", "/vo_manager");
     ASSERT_TRUE(waitFor(
         [&] {
           if (image_pub_.getNumSubscribers() == 0 || info_pub_.getNumSubscribers() == 0) return false;
+          if (fused_ && (imu_pub_.getNumSubscribers() == 0 || altimeter_pub_.getNumSubscribers() == 0 ||
+                         initial_state_pub_.getNumSubscribers() == 0))
+            return false;
           for (const ros::Subscriber& s : subs_)
-            if (!publisherSendsTo(manager, s.getTopic())) return false;
+            if (!publisherSendsTo(manager_, s.getTopic())) return false;
           return true;
         },
         30.0))
         << "the nodelet did not connect";
+    if (fused_) {
+      // The handover: ground truth at the first image (what the player's ~publish_initial_state sends).
+      const std::vector<GroundTruthState> states = readGroundTruthStates(dir + "/groundtruth_state.txt");
+      initial_state_pub_.publish(toInitialStateMsg(dataset_->groundTruth().front().T_world_cam,
+                                                   states.front().velocity_world_mps,
+                                                   makeHeader(stamp(0), "world"), "camera_optical"));
+      ASSERT_TRUE(waitFor([&] { return messagesReceived(manager_, "/nav/initial_state") >= 1; }, 10.0));
+    }
+  }
+
+  /// No callback may run into the members being destroyed (the nodelet may still be publishing).
+  void TearDown() override {
+    for (ros::Subscriber& s : subs_) s.shutdown();
+  }
+
+  void onNav(const nav_msgs::OdometryConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    nav_.push_back(*m);
+  }
+
+  sensor_msgs::Imu imuMsg(const ImuSample& s, double t) const {
+    return toImu(s, makeHeader(toStamp(kEpoch, t), "camera_optical"));
+  }
+  sensor_msgs::Range rangeMsg(double range, double t) const {
+    AltimeterSample s;
+    s.slant_range_m = range;
+    return toRange(s, makeHeader(toStamp(kEpoch, t), "camera_optical"),
+                   altimeterSpec(dataset_->sensorSpecification()));
+  }
+  void publishImu(const sensor_msgs::Imu& m) {
+    imu_pub_.publish(m);
+    ++imu_sent_;
+  }
+  void publishRange(const sensor_msgs::Range& m) {
+    altimeter_pub_.publish(m);
+    ++altimeter_sent_;
+  }
+  /// The dataset's IMU and altimeter samples up to dataset time t (IMU samples in (skip_from, skip_to]
+  /// withheld: a gap), then waits until the nodelet has queued every sample sent so far, so that they are
+  /// handled before the next image.
+  void publishSamplesUpTo(double t, double skip_from = 0.0, double skip_to = 0.0) {
+    const auto& imu = dataset_->imu();
+    const auto& alt = dataset_->altimeter();
+    for (; next_imu_ < imu.size() && imu[next_imu_].timestamp_s <= t; ++next_imu_) {
+      const double ts = imu[next_imu_].timestamp_s;
+      if (ts > skip_from && ts <= skip_to) continue;
+      publishImu(imuMsg(imu[next_imu_], ts));
+      ++good_imu_sent_;
+    }
+    for (; next_altimeter_ < alt.size() && alt[next_altimeter_].timestamp_s <= t; ++next_altimeter_) {
+      publishRange(rangeMsg(alt[next_altimeter_].slant_range_m, alt[next_altimeter_].timestamp_s));
+      if (!alt[next_altimeter_].hasReturn()) ++no_range_sent_;
+    }
+    EXPECT_TRUE(waitFor(
+        [&] {
+          return messagesReceived(manager_, "/imu") >= int(imu_sent_) &&
+                 messagesReceived(manager_, "/altimeter") >= int(altimeter_sent_);
+        },
+        30.0))
+        << "the nodelet did not receive the samples";
   }
 
   void onStatus(const VoStatusConstPtr& m) {
@@ -109,6 +190,7 @@ class VoBadInputTest : public ::testing::Test {
     return found;
   }
   VoStatus sendGood(size_t i, double scale = 1.0) {
+    if (fused_) publishSamplesUpTo(dataset_->timestamp(i));
     cv::Mat m = image(i);
     if (scale != 1.0) cv::resize(m, m, cv::Size(), scale, scale, cv::INTER_AREA);
     return send(imageMsg(m, stamp(i), "mono8"), info(stamp(i), scale));
@@ -154,6 +236,14 @@ class VoBadInputTest : public ::testing::Test {
   std::mutex mutex_;
   std::vector<VoStatus> statuses_;
   std::vector<geometry_msgs::PoseStamped> poses_;
+  // Case "samples".
+  bool fused_ = false;
+  std::string manager_;
+  ros::Publisher imu_pub_, altimeter_pub_, initial_state_pub_;
+  size_t next_imu_ = 0, next_altimeter_ = 0;
+  size_t imu_sent_ = 0, altimeter_sent_ = 0, good_imu_sent_ = 0, no_range_sent_ = 0;
+  std::vector<nav_msgs::Odometry> nav_;
+  size_t rejected_imu_ = 0, rejected_altimeter_ = 0;
 };
 
 TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
@@ -216,20 +306,106 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
     const VoStatus s = sendGood(next++, scale);
     EXPECT_TRUE(s.processed);
     EXPECT_NE(s.message.find("camera_info changed"), std::string::npos) << s.message;
+  } else if (case_ == "samples") {
+    const double t_given = dataset_->timestamp(next - 1);  // every sample up to here is in the pipeline
+    const double inf = std::numeric_limits<double>::infinity();
+    sensor_msgs::Imu m = imuMsg(dataset_->imu()[0], t_given + 0.0025);
+    m.angular_velocity.x = std::nan("");
+    publishImu(m);  // non-finite
+    m = imuMsg(dataset_->imu()[0], t_given + 0.003);
+    m.angular_velocity_covariance[0] = -1.0;
+    publishImu(m);  // REP-145: no angular velocity
+    m = imuMsg(dataset_->imu()[0], 0.0);
+    m.header.stamp = ros::Time();
+    publishImu(m);                                             // zero stamp
+    publishImu(imuMsg(dataset_->imu()[0], t_given - 0.0025));  // older than what the pipeline has
+    publishImu(imuMsg(dataset_->imu()[0], t_given));           // duplicate of a sample already given
+    publishRange(rangeMsg(std::nan(""), t_given + 0.01));      // erroneous
+    publishRange(rangeMsg(-5.0, t_given + 0.02));              // negative
+    publishRange(rangeMsg(-inf, t_given + 0.03));              // REP-117: too close (no range)
+    publishRange(rangeMsg(inf, t_given + 0.035));              // no return (no range)
+    publishRange(rangeMsg(700.0, t_given - 0.01));             // out of order
+    const size_t imu_rejected = 5 + 1, altimeter_rejected = 3, no_range = 2;
+    // The next image's samples, one of them twice (a duplicate while buffered), then the image.
+    publishSamplesUpTo(dataset_->timestamp(next));
+    publishImu(imuMsg(dataset_->imu()[next_imu_ - 1], dataset_->imu()[next_imu_ - 1].timestamp_s));
+    const VoStatus s = sendGood(next++);
+    EXPECT_NE(s.message.find("IMU sample rejected"), std::string::npos) << s.message;
+    EXPECT_NE(s.message.find("altimeter reading rejected"), std::string::npos) << s.message;
+    EXPECT_EQ(s.num_imu_rejected, imu_rejected);
+    EXPECT_EQ(s.num_altimeter_rejected, altimeter_rejected);
+    EXPECT_EQ(s.num_altimeter_no_range, no_range + no_range_sent_);
+    no_range_sent_ += no_range;
+    rejected_imu_ = imu_rejected;
+    rejected_altimeter_ = altimeter_rejected;
   } else {
     FAIL() << "unknown case " << case_;
   }
 
   VoStatus last;
   bool resumed = false;
+  // Case samples: a 0.2 s gap in the IMU stream before the last kGapFrames images.
+  constexpr size_t kGapFrames = 4;
+  const ros::Time gap_start = stamp(next + kGoodAfter - kGapFrames - 1) + ros::Duration(0.02);
+  bool gap_reported = false;
   for (size_t k = 0; k < kGoodAfter; ++k, ++next) {
+    if (fused_ && k + kGapFrames >= kGoodAfter) {
+      const double from = toDatasetTime(kEpoch, gap_start);
+      publishSamplesUpTo(dataset_->timestamp(next), from, from + 0.2);
+    }
     last = sendGood(next, scale);
+    gap_reported |= last.message.find("IMU gap") != std::string::npos;
     EXPECT_NE(last.state, VoStatus::STATE_BAD_INPUT)
         << "good frame " << next << " rejected: " << last.message;
     resumed |= last.state == VoStatus::STATE_TRACKING || last.state == VoStatus::STATE_RECOVERED;
   }
   EXPECT_TRUE(resumed) << "no pose estimate after the bad input; last: " << last.state_name << " "
                        << last.message;
+  if (fused_) {
+    // The bad samples did not stop the good ones: every good one was used, the navigation is metric and
+    // nav/odometry continues (finite) after them.
+    EXPECT_EQ(last.num_imu_rejected, rejected_imu_);
+    EXPECT_EQ(last.num_altimeter_rejected, rejected_altimeter_);
+    EXPECT_EQ(last.num_imu_used, good_imu_sent_);
+    EXPECT_EQ(last.num_altimeter_no_range, no_range_sent_);
+    EXPECT_EQ(last.num_altimeter_used, altimeter_sent_ - rejected_altimeter_ - no_range_sent_);
+    EXPECT_TRUE(last.metric);
+    EXPECT_TRUE(last.initial_state_applied);
+    EXPECT_EQ(last.mode, "vision+imu+altimeter");
+    std::printf(
+        "samples: last status %s, metric %d, inertial %d, IMU %u used / %u rejected, altimeter %u "
+        "used / %u without range / %u rejected; message '%s'\n",
+        last.state_name.c_str(), last.metric, last.inertial, last.num_imu_used, last.num_imu_rejected,
+        last.num_altimeter_used, last.num_altimeter_no_range, last.num_altimeter_rejected,
+        last.message.c_str());
+    EXPECT_TRUE(gap_reported) << "no status says that the IMU stream had a gap";
+    // nav/odometry and vo/status come over separate connections: the last image's may still be on its way.
+    const ros::Time last_image = stamp(next - 1);
+    EXPECT_TRUE(waitFor(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          return !nav_.empty() && nav_.back().header.stamp >= last_image;
+        },
+        10.0))
+        << "no nav/odometry for the last image";
+    std::lock_guard<std::mutex> lock(mutex_);
+    // After the bad samples and before the gap, at the IMU rate (5 ms); after the gap, on at the image rate.
+    std::set<ros::Time> before_gap, after_gap;
+    for (const nav_msgs::Odometry& o : nav_) {
+      ASSERT_TRUE(fromPoseMsg(o.pose.pose).matrix().allFinite());
+      ASSERT_TRUE(std::isfinite(o.twist.twist.linear.x) && std::isfinite(o.pose.covariance[0]));
+      if (o.header.stamp > stamp(kGoodBefore + 1) && o.header.stamp <= gap_start)
+        before_gap.insert(o.header.stamp);
+      if (o.header.stamp > gap_start + ros::Duration(0.2)) after_gap.insert(o.header.stamp);
+    }
+    const double span = (gap_start - stamp(kGoodBefore + 1)).toSec();
+    std::printf(
+        "samples: nav/odometry %zu stamps in the %.2f s between the bad samples and the gap, %zu after "
+        "the gap\n",
+        before_gap.size(), span, after_gap.size());
+    EXPECT_GT(double(before_gap.size()), 0.8 * span / 0.005) << "nav/odometry not at the IMU rate";
+    EXPECT_GE(after_gap.size(), 2u) << "no navigation output after the gap (images 3 and 4 of the 4)";
+  }
 
   std::lock_guard<std::mutex> lock(mutex_);
   for (size_t k = 0; k < poses_.size(); ++k) {

@@ -1,5 +1,7 @@
 /// Unit tests (no master) of the VO nodelet's free functions: image conversion to 8-bit gray, input checks,
-/// FrameResult -> VoStatus, odometry twist and covariance, map points -> PointCloud2.
+/// FrameResult -> VoStatus (with the fusion fields), odometry twist and covariance, the navigation output
+/// nav/odometry (twist of the child in the child frame, lever arms, covariances), the sample buffer of the
+/// IMU and altimeter inputs, map points -> PointCloud2.
 
 #include <cmath>
 
@@ -11,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "planetary_vo/ros_io/conversions.h"
+#include "planetary_vo/ros_io/sample_buffer.h"
 #include "planetary_vo/ros_io/vo_conversions.h"
 
 namespace planetary_vo::ros_io {
@@ -163,6 +166,162 @@ TEST(VoConversions, OdometryTwistIsInTheChildFrame) {
   EXPECT_NEAR(lost.pose.covariance[0], 100.0, 1e-9);  // (0.1 m x 100)^2
   const nav_msgs::Odometry first = toOdometry(r, cur, prev, 0.0, {}, "cam", sigma);
   EXPECT_EQ(first.twist.twist.linear.x, 0.0);
+}
+
+TEST(VoConversions, StatusCarriesTheFusionState) {
+  FrameResult r;
+  r.processed = true;
+  r.state = TrackingState::kTracking;
+  r.metric_scale = true;
+  r.scale_source = ScaleSource::kAltimeter;
+  r.inertial = true;
+  r.has_velocity = true;
+  r.v_world_mps = Eigen::Vector3d(6.0, 75.0, -14.0);
+  r.imu_bias.gyro_radps = Eigen::Vector3d(1e-5, -2e-5, 3e-5);
+  r.imu_bias.accel_mps2 = Eigen::Vector3d(-0.009, 0.004, 0.002);
+  const VoStatus s = toVoStatus(r, {});
+  EXPECT_TRUE(s.metric);
+  EXPECT_TRUE(s.inertial);
+  EXPECT_EQ(s.scale_source, "altimeter");
+  ASSERT_TRUE(s.has_velocity);
+  EXPECT_EQ(s.velocity_world_mps[1], 75.0);
+  EXPECT_EQ(s.gyro_bias_radps[2], 3e-5);
+  EXPECT_EQ(s.accel_bias_mps2[0], -0.009);
+  EXPECT_EQ(toVoStatus(FrameResult(), {}).scale_source, "none");
+
+  VoConfig c;
+  EXPECT_EQ(navigationMode(c), VoStatus::MODE_VISION);
+  c.altimeter.enabled = true;
+  EXPECT_EQ(navigationMode(c), "vision+altimeter");
+  c.imu.enabled = true;
+  EXPECT_EQ(navigationMode(c), "vision+imu+altimeter");
+  c.altimeter.enabled = false;
+  EXPECT_EQ(navigationMode(c), "vision+imu");
+}
+
+TEST(VoConversions, SampleBufferGivesSamplesInStampOrderAndRefusesWhatThePipelineWould) {
+  SampleBuffer<ImuSample> buffer(10.0);
+  auto sample = [](double t) {
+    ImuSample s;
+    s.timestamp_s = t;
+    return s;
+  };
+  using Insert = SampleBuffer<ImuSample>::Insert;
+  EXPECT_EQ(buffer.insert(sample(0.010)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(0.000)), Insert::kBuffered);  // arrived late, still in time: reordered
+  EXPECT_EQ(buffer.insert(sample(0.005)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(0.020)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(0.005)), Insert::kDuplicate);
+  std::vector<double> given;
+  EXPECT_EQ(buffer.giveUpTo(0.010, [&](const ImuSample& s) { given.push_back(s.timestamp_s); }), 3u);
+  EXPECT_EQ(given, (std::vector<double>{0.0, 0.005, 0.010}));
+  ASSERT_TRUE(buffer.lastGiven().has_value());
+  EXPECT_EQ(*buffer.lastGiven(), 0.010);
+  // After a sample was given, nothing at or before it can be: the pipeline has moved past it.
+  EXPECT_EQ(buffer.insert(sample(0.010)), Insert::kDuplicate);
+  EXPECT_EQ(buffer.insert(sample(0.007)), Insert::kTooOld);
+  EXPECT_EQ(buffer.insert(sample(0.015)), Insert::kBuffered);
+  given.clear();
+  buffer.giveAll([&](const ImuSample& s) { given.push_back(s.timestamp_s); });
+  EXPECT_EQ(given, (std::vector<double>{0.015, 0.020}));
+  EXPECT_TRUE(buffer.empty());
+  // A new pipeline takes any stamp again.
+  buffer.restart();
+  EXPECT_EQ(buffer.insert(sample(0.001)), Insert::kBuffered);
+  // Flat memory while nothing consumes: older than max_span before the newest is dropped.
+  for (int i = 1; i <= 3000; ++i) buffer.insert(sample(0.001 + 0.005 * i));
+  EXPECT_LE(buffer.size(), 2001u);
+  EXPECT_GT(buffer.dropped(), 0u);
+  buffer.discardUpTo(14.0);
+  given.clear();
+  buffer.giveAll([&](const ImuSample& s) { given.push_back(s.timestamp_s); });
+  ASSERT_FALSE(given.empty());
+  EXPECT_GT(given.front(), 14.0);
+}
+
+TEST(VoConversions, NavCovarianceFromThePipelineOrTheParameters) {
+  const OdometrySigma sigma{0.1, 0.01, 100.0, 100};
+  FrameResult r;
+  r.processed = true;
+  r.state = TrackingState::kTracking;
+  r.num_inliers = 100;
+  Eigen::Matrix<double, 9, 9> cov = navCovariance(r, sigma, 0.2);
+  EXPECT_NEAR(cov(0, 0), 0.01, 1e-15);
+  EXPECT_NEAR(cov(4, 4), 1e-4, 1e-15);
+  EXPECT_NEAR(cov(8, 8), 0.04, 1e-15);
+  r.has_covariance = true;
+  r.covariance = 4.0 * Eigen::Matrix<double, 9, 9>::Identity();
+  EXPECT_EQ(navCovariance(r, sigma, 0.2)(6, 6), 4.0);
+  // Lost without IMU factors: never confident, even with the pipeline's covariance.
+  r.state = TrackingState::kLost;
+  EXPECT_EQ(navCovariance(r, sigma, 0.2)(6, 6), 4.0 * 1e4);
+  r.inertial = true;  // the IMU holds the map: the pipeline's covariance stands
+  EXPECT_EQ(navCovariance(r, sigma, 0.2)(6, 6), 4.0);
+  r.has_covariance = false;
+  r.inertial = false;
+  EXPECT_NEAR(navCovariance(r, sigma, 0.2)(0, 0), 100.0, 1e-9);  // (0.1 m x 100)^2
+}
+
+TEST(VoConversions, NavOdometryTwistIsTheChildsInTheChildFrame) {
+  NavSolution s;
+  s.T_world_cam.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  s.T_world_cam.translation() = Eigen::Vector3d(-250, -2400, 650);
+  s.v_world_mps = Eigen::Vector3d(6.0, 75.0, -14.0);
+  s.w_body_radps = Eigen::Vector3d(0.01, -0.02, 0.05);
+  s.covariance = Eigen::Matrix<double, 9, 9>::Identity() * 1e-4;
+  s.covariance.bottomRightCorner<3, 3>() = Eigen::Vector3d(1.0, 4.0, 9.0).asDiagonal();
+  s.w_covariance = Eigen::Matrix3d::Identity() * 1e-6;
+  // IMU and camera co-located, child = camera: twist = R^T v and the gyro rate.
+  nav_msgs::Odometry o =
+      toNavOdometry(s, Pose::Identity(), Pose::Identity(), makeHeader(ros::Time(3, 0), "world"), "cam");
+  EXPECT_EQ(o.header.frame_id, "world");
+  EXPECT_EQ(o.child_frame_id, "cam");
+  const Eigen::Vector3d v_cam = s.T_world_cam.rotation().transpose() * s.v_world_mps;
+  EXPECT_NEAR(o.twist.twist.linear.x, v_cam.x(), 1e-12);
+  EXPECT_NEAR(o.twist.twist.linear.z, v_cam.z(), 1e-12);
+  EXPECT_NEAR(o.twist.twist.angular.z, 0.05, 1e-15);
+  EXPECT_NEAR(o.pose.pose.position.y, -2400.0, 1e-12);
+  EXPECT_NEAR(o.pose.covariance[0], 1e-4, 1e-15);
+  // Velocity covariance rotated into the child frame: the trace is kept.
+  EXPECT_NEAR(o.twist.covariance[0] + o.twist.covariance[7] + o.twist.covariance[14], 14.0, 1e-12);
+
+  // A base frame 2 m along the camera's z axis, turned 90 degrees about it; the IMU 0.3 m along x.
+  Pose T_cam_child = Pose::Identity();
+  T_cam_child.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_cam_child.translation() = Eigen::Vector3d(0, 0, 2.0);
+  Pose T_cam_imu = Pose::Identity();
+  T_cam_imu.translation() = Eigen::Vector3d(0.3, 0, 0);
+  o = toNavOdometry(s, T_cam_imu, T_cam_child, {}, "base");
+  const Pose T_world_child = s.T_world_cam * T_cam_child;
+  const Pose T_world_imu = s.T_world_cam * T_cam_imu;
+  const Eigen::Vector3d w_world = T_world_imu.rotation() * s.w_body_radps;
+  const Eigen::Vector3d v_child =
+      T_world_child.rotation().transpose() *
+      (s.v_world_mps + w_world.cross(T_world_child.translation() - T_world_imu.translation()));
+  EXPECT_NEAR(o.twist.twist.linear.x, v_child.x(), 1e-12);
+  EXPECT_NEAR(o.twist.twist.linear.y, v_child.y(), 1e-12);
+  EXPECT_NEAR(o.twist.twist.linear.z, v_child.z(), 1e-12);
+  const Eigen::Vector3d w_child = T_world_child.rotation().transpose() * w_world;
+  EXPECT_NEAR(o.twist.twist.angular.x, w_child.x(), 1e-15);
+  EXPECT_NEAR(o.twist.twist.angular.y, w_child.y(), 1e-15);
+  EXPECT_NEAR(o.pose.pose.position.x, T_world_child.translation().x(), 1e-9);
+  // The attitude error moves the base 2 m away: its position variance grows by (2 m)^2 x 1e-4 per axis
+  // perpendicular to the lever arm.
+  double trace = 0.0;
+  for (int i = 0; i < 3; ++i) trace += o.pose.covariance[i * 7];
+  EXPECT_NEAR(trace, 3e-4 + 2.0 * 4.0 * 1e-4, 1e-12);
+}
+
+TEST(VoConversions, DifferentiatedPosesGiveBodyRates) {
+  Pose a = Pose::Identity(), b = Pose::Identity();
+  a.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  b.linear() = a.linear() * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  b.translation() = Eigen::Vector3d(1.0, 2.0, -3.0);
+  Eigen::Vector3d v, w;
+  ASSERT_TRUE(differentiatePoses(a, b, 0.1, &v, &w));
+  EXPECT_TRUE(v.isApprox(Eigen::Vector3d(10.0, 20.0, -30.0), 1e-12));
+  EXPECT_TRUE(w.isApprox(Eigen::Vector3d(0.0, 0.2, 0.0), 1e-9));
+  EXPECT_FALSE(differentiatePoses(a, b, 0.0, &v, &w));
 }
 
 TEST(VoConversions, PointCloudHasXyzAndObservations) {

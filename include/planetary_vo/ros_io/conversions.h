@@ -13,6 +13,7 @@
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -20,6 +21,7 @@
 #include <sensor_msgs/Range.h>
 #include <std_msgs/Header.h>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "planetary_vo/dataset/dataset.h"
@@ -82,6 +84,53 @@ AltimeterSpec altimeterSpec(const SensorSpecification& spec, const AltimeterSpec
 /// boresight. The altitude above the terrain has no field in Range and is not carried.
 sensor_msgs::Range toRange(const AltimeterSample& sample, const std_msgs::Header& header,
                            const AltimeterSpec& spec = AltimeterSpec());
+
+// ---------------------------------------------------------------------------------------------------------------
+// Sensor messages -> core samples (the nodelet's inputs). Times are seconds since `epoch` (toDatasetTime),
+// the clock the nodelet gives the pipeline. None of these throws: a message that cannot be used gives false
+// (or kInvalid) and the reason in *why.
+
+/// @brief sensor_msgs/Imu -> ImuSample (angular velocity and linear acceleration = specific force, in the IMU
+/// frame; the orientation is ignored).
+/// @return false, with *why, for a zero stamp, a non-finite angular velocity or linear acceleration, or a
+/// message that says it carries no angular velocity or no linear acceleration (covariance[0] = -1, REP-145).
+bool fromImu(const sensor_msgs::Imu& msg, const ros::Time& epoch, ImuSample* sample, std::string* why);
+
+/// What a sensor_msgs/Range reading says (REP-117 and the Range message's limits).
+enum class RangeReading {
+  kRange,    ///< a finite range within [min_range, max_range]: sample->slant_range_m = range
+  kNoRange,  ///< a valid reading without a range: +Inf (no return), -Inf (too close to measure), or a finite
+             ///< range outside [min_range, max_range]; sample->slant_range_m = +Inf (the pipeline's "no
+             ///< return")
+  kInvalid,  ///< NaN, a negative range, or a zero stamp: *why says which
+};
+/// "range", "no_range", "invalid".
+const char* toString(RangeReading reading);
+/// @brief sensor_msgs/Range -> AltimeterSample. The limits are applied only when the message gives usable
+/// ones (finite, 0 <= min_range < max_range); a driver that leaves them 0 is not second-guessed.
+/// @param why set for kNoRange (what kind) and kInvalid.
+RangeReading fromRange(const sensor_msgs::Range& msg, const ros::Time& epoch, AltimeterSample* sample,
+                       std::string* why);
+
+/// The state guidance hands over (nav/initial_state), as the pipeline takes it.
+struct InitialState {
+  Pose T_world_cam = Pose::Identity();                        ///< camera optical frame in the world
+  Eigen::Vector3d v_world_imu_mps = Eigen::Vector3d::Zero();  ///< IMU body velocity, world frame
+};
+
+/// @brief nav/initial_state (nav_msgs/Odometry) -> InitialState. Convention (docs/ros_interface.md): pose =
+/// T_world_cam of the camera optical frame in the world frame (header.frame_id: gravity-aligned, z up);
+/// twist.twist.linear = velocity of the camera optical frame's origin in the WORLD frame (not the child frame
+/// as REP-105's odometry has it); twist.twist.angular = angular velocity in the world frame (zero when
+/// unknown), used only to move the velocity to the IMU: v_imu = v_cam + w x (R_world_cam * t_cam_imu).
+/// @return false, with *why, for a non-finite pose or velocity or a quaternion whose norm is not 1 +- 1e-3
+/// (it is normalised otherwise).
+bool fromInitialStateMsg(const nav_msgs::Odometry& msg, const Pose& T_cam_imu, InitialState* state,
+                         std::string* why);
+/// The inverse, for a handover source (the player): header.frame_id = the world frame, child_frame_id = the
+/// camera optical frame, twist.linear = v_world_cam_mps (world frame), twist.angular = 0, covariances 0.
+nav_msgs::Odometry toInitialStateMsg(const Pose& T_world_cam, const Eigen::Vector3d& v_world_cam_mps,
+                                     const std_msgs::Header& header, const std::string& camera_frame);
 
 /// 8-bit gray -> mono8, 16-bit gray -> mono16 (the pixels are copied). Throws std::invalid_argument
 /// otherwise.

@@ -24,6 +24,7 @@
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -46,6 +47,8 @@ inline constexpr const char* kGroundTruthPath = "ground_truth/path";  ///< nav_m
 inline constexpr const char* kImu = "imu";                            ///< sensor_msgs/Imu
 inline constexpr const char* kAltimeter = "altimeter";                ///< sensor_msgs/Range
 inline constexpr const char* kTf = "/tf";                             ///< tf2_msgs/TFMessage
+/// nav_msgs/Odometry, latched, once: the guidance handover (PlayerOptions::publish_initial_state)
+inline constexpr const char* kInitialState = "nav/initial_state";
 inline constexpr const char* kClock = "/clock";  ///< rosgraph_msgs/Clock (live node only)
 }  // namespace player_topics
 
@@ -68,6 +71,10 @@ struct PlayerOptions {
   AltimeterSpec altimeter;
   /// Fill the IMU covariances and the Range limits from the dataset's sensors.yaml (data-sheet values).
   bool sensor_spec_from_dataset = true;
+  /// Publish (live: latched, once, before the first message; bag: the first message, latched) the
+  /// ground-truth state at the first image as the guidance handover on nav/initial_state: see
+  /// initialStateMessage(). Off by default.
+  bool publish_initial_state = false;
 };
 
 enum class StreamKind { kImu = 0, kAltimeter = 1, kImage = 2 };  ///< order at equal times
@@ -149,6 +156,17 @@ class Player {
   nav_msgs::Path path_;
 };
 
+/// @brief The guidance handover the player stands in for: the dataset's ground-truth state at the first
+/// image played (start_index), as nav/initial_state carries it (conversions.h toInitialStateMsg: camera pose
+/// T_world_cam from groundtruth.txt, world-frame velocity from groundtruth_state.txt, stamp = that image's
+/// stamp, frame_id = world_frame, child = camera_frame). The velocity is the IMU body's, which is the
+/// camera's for the Lunar datasets (body = camera optical frame). This is the ONLY ground truth a navigation
+/// subscriber of the player receives; everything else it publishes as ground truth is for displays and
+/// evaluators.
+/// @return nullopt, with *why, when the dataset has no ground-truth pose or no groundtruth_state.txt line at
+/// that image time (within 1 ms).
+std::optional<nav_msgs::Odometry> initialStateMessage(const Player& player, std::string* why);
+
 /// Writes the whole stream (no loop) into a new bag at `bag_path`, topics as in player_topics with a leading
 /// '/', bag times = header stamps. Needs no master (calls ros::Time::init()). Returns the number of bag
 /// messages. Throws rosbag::BagException or DatasetError.
@@ -163,6 +181,7 @@ struct PlayerCommandLine {
   std::optional<double> time_offset_s;  ///< --time-offset S
   std::optional<std::string> world_frame, camera_frame, ground_truth_frame;  ///< --world-frame ... --gt-frame
   bool no_path = false;                                                      ///< --no-path
+  bool initial_state = false;  ///< --initial-state: PlayerOptions::publish_initial_state
 };
 /// Parses arguments (without argv[0]). Throws std::invalid_argument naming the bad or unknown argument.
 PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args);

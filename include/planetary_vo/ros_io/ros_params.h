@@ -45,6 +45,17 @@ struct NodeletParams {
   double max_frame_gap_factor = 3.0;  ///< ~max_frame_gap_factor: gap > this x median period = dropped frames
   double min_rate_hz = 1.0;           ///< ~min_rate_hz, ~max_rate_hz: vo/odometry frequency diagnostic bounds
   double max_rate_hz = 1000.0;
+  /// ~velocity_sigma_mps: 1-sigma of the nav/odometry velocity when the pipeline gives no covariance, scaled
+  /// like position_sigma_m.
+  double velocity_sigma_mps = 0.1;
+  /// ~wait_for_initial_state: process no image until a state arrives on nav/initial_state (and again after
+  /// vo/reset).
+  bool wait_for_initial_state = false;
+  /// ~initial_state_tolerance: the handed-over state belongs to the first image within this of its stamp;
+  /// images before it are skipped, a state older than the next image by more than this is not applied.
+  double initial_state_tolerance_s = 0.01;
+  int imu_queue_size = 1000;       ///< ~imu_queue_size: imu subscriber queue (messages)
+  int altimeter_queue_size = 100;  ///< ~altimeter_queue_size
 };
 NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh);
 

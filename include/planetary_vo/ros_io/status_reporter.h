@@ -6,6 +6,10 @@
 ///   / after bad input, ERROR when lost for long or when no usable input arrives; key/values with the counts,
 ///   per-stage times and the mean ROS-layer overhead per frame.
 /// - "<node>: vo/odometry topic status": frequency (and stamp) diagnostic of vo/odometry.
+/// - "<node>: nav/odometry topic status": the same for the metric navigation output (fused modes only,
+///   enableNavigationRate()); its rate is the IMU's once the inertial state runs.
+/// The key/values also give the navigation mode, metric / inertial / scale source, the IMU velocity and bias
+/// estimates and the IMU and altimeter counters (used, rejected, without a range).
 ///
 /// Threading: update() and tick() may be called from different threads (callback and timer); a mutex guards
 /// the snapshot.
@@ -33,6 +37,10 @@ class StatusReporter {
   void update(const VoStatus& status, bool published_odometry);
   /// Sets a problem that is not tied to a frame (e.g. "no camera_info"), "" to clear it.
   void setInputProblem(const std::string& problem);
+  /// Adds the nav/odometry frequency diagnostic (a fused mode publishes nav/odometry).
+  void enableNavigationRate();
+  /// One nav/odometry message was published.
+  void tickNavigation();
   /// Publishes on /diagnostics when the updater's period has passed (call it from a timer).
   void tick();
 
@@ -41,7 +49,7 @@ class StatusReporter {
 
   diagnostic_updater::Updater updater_;
   double min_rate_hz_, max_rate_hz_;
-  std::unique_ptr<diagnostic_updater::HeaderlessTopicDiagnostic> odometry_rate_;
+  std::unique_ptr<diagnostic_updater::HeaderlessTopicDiagnostic> odometry_rate_, navigation_rate_;
   int lost_error_frames_;
 
   std::mutex mutex_;
