@@ -214,6 +214,15 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
   return removed;
 }
 
+void Map::transformAbout(const Eigen::Vector3d& centre, const Eigen::Matrix3d& R, double s) {
+  for (Keyframe& kf : keyframes_) {
+    kf.T_world_cam.translation() = centre + s * R * (kf.T_world_cam.translation() - centre);
+    kf.T_world_cam.linear() = R * kf.T_world_cam.linear();
+    kf.v_world_mps = R * kf.v_world_mps;
+  }
+  for (auto& entry : points_) entry.second.p_world = centre + s * R * (entry.second.p_world - centre);
+}
+
 void Map::applyCovariances(const std::vector<BaInertialState>& states) {
   for (const BaInertialState& st : states) {
     Keyframe* kf = keyframe(st.keyframe_id);

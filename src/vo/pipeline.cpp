@@ -9,6 +9,7 @@
 #include <string>
 
 #include "planetary_vo/geometry/median.h"
+#include "planetary_vo/vo/inertial_initializer.h"
 #include "planetary_vo/vo/motion_prior.h"
 #include "planetary_vo/vo/scale_bridge.h"
 
@@ -124,6 +125,7 @@ void Pipeline::reset() {
   last_nav_state_.reset();
   altimeter_.clear();
   inertial_.clear();
+  gravity_aligned_ = false;
   carried_inertial_.reset();
   carried_covariance_.reset();
   failed_frames_ = 0;
@@ -583,6 +585,7 @@ void Pipeline::insertKeyframe(FrameResult* result) {
     if (!metric_scale_) tryMetricScaleAtKeyframe(result);
   }
   attachInertialState(insertion.keyframe_id, result);
+  if (config_.imu.enabled && !newestInertialState()) tryInertialAlignment(result);
   result->times.mapping_ms = msSince(start);
   runBundleAdjustment(result);
 }
@@ -736,6 +739,76 @@ std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> Pipeline::newest
       return std::make_pair(
           inertial_.bodyState(it->timestamp_s, it->T_world_cam, it->v_world_mps, it->imu_bias), it->covariance);
   return carried_covariance_;
+}
+
+void Pipeline::tryInertialAlignment(FrameResult* result) {
+  // At least this many keyframes over at least this long: the accelerometer must see the motion change.
+  constexpr size_t kMinKeyframes = 5;
+  constexpr double kMinSpanS = 2.0;
+  const auto& kfs = map_.keyframes();
+  // The newest run of keyframes that the IMU covers without a gap.
+  size_t first = kfs.size();
+  std::vector<std::shared_ptr<const ImuPreintegration>> pre;
+  while (first > 0) {
+    if (first < kfs.size()) {
+      auto p = inertial_.preintegrate(kfs[first - 1].timestamp_s, kfs[first].timestamp_s, ImuBias());
+      if (!p) break;
+      pre.insert(pre.begin(), p);
+    }
+    --first;
+  }
+  if (kfs.size() - first < kMinKeyframes || kfs.back().timestamp_s - kfs[first].timestamp_s < kMinSpanS) return;
+  InertialAlignmentInput in;
+  for (size_t k = first; k < kfs.size(); ++k) {
+    in.timestamps_s.push_back(kfs[k].timestamp_s);
+    in.T_map_cam.push_back(kfs[k].T_world_cam);
+  }
+  in.preintegrations = pre;
+  in.T_cam_imu = inertial_.T_cam_imu();
+  in.gravity_mps2 = config_.imu.gravity_mps2;
+  if (initial_pose_given_) in.known_gravity_map = inertial_.gravityWorld();
+  in.known_scale = metric_scale_;
+  in.gyro_bias_prior_sigma_radps = config_.imu.gyro_turn_on_bias_radps;
+  const InertialAlignment a = alignVisualInertial(in);
+  if (!a.valid) {
+    result->message += "; visual-inertial alignment not yet: " + a.reason;
+    return;
+  }
+  // The map frame turned gravity-aligned (unless it was: handed-over pose) and metric, about the first camera
+  // (the initial pose); yaw stays the map's.
+  const Eigen::Vector3d centre = T_world_cam_initial_.translation();
+  const Eigen::Matrix3d R =
+      initial_pose_given_
+          ? Eigen::Matrix3d::Identity()
+          : Eigen::Quaterniond::FromTwoVectors(a.gravity_map.normalized(), -Eigen::Vector3d::UnitZ())
+                .toRotationMatrix();
+  map_.transformAbout(centre, R, a.scale);
+  auto moved = [&](Pose T) {
+    T.translation() = centre + a.scale * R * (T.translation() - centre);
+    T.linear() = R * T.linear();
+    return T;
+  };
+  result->T_world_cam = moved(result->T_world_cam);
+  if (last_good_.valid) last_good_.T_world_cam = moved(last_good_.T_world_cam);
+  if (reference_.valid) reference_.T_world_cam = moved(reference_.T_world_cam);
+  ImuBias bias;
+  bias.gyro_radps = a.gyro_bias_radps;
+  for (size_t k = first; k < kfs.size(); ++k) {
+    Keyframe* kf = map_.keyframe(kfs[k].id);
+    kf->has_inertial_state = true;
+    kf->v_world_mps = R * a.velocities_map_mps[k - first];
+    kf->imu_bias = bias;
+    if (k > first) kf->imu_from_previous = inertial_.preintegrate(kfs[k - 1].timestamp_s, kf->timestamp_s, bias);
+  }
+  if (!metric_scale_) scale_source_ = ScaleSource::kImu;
+  metric_scale_ = true;
+  gravity_aligned_ = true;
+  scale_confidence_ = 1.0;
+  result->message += "; visual-inertial alignment over " + std::to_string(kfs.size() - first) +
+                     " keyframes: scale x" + std::to_string(a.scale) + " (1-sigma " +
+                     std::to_string(100.0 * a.scale_sigma) + " %), gyro bias " +
+                     std::to_string(a.gyro_bias_radps.norm()) + " rad/s" +
+                     (initial_pose_given_ ? "" : ", world turned gravity-aligned");
 }
 
 std::optional<NavState> Pipeline::navStateAt(double t_s) const {

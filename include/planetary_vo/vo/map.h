@@ -106,6 +106,10 @@ class Map {
   /// centre), velocities s v; attitudes are unchanged. A change of the map's unit, e.g. to metres once the altimeter fixed
   /// it.
   void scaleAbout(const Eigen::Vector3d& centre, double s);
+  /// Rotates and scales the map about `centre`: p -> centre + R s (p - centre) for keyframe positions and
+  /// points, attitudes R_world_cam -> R R_world_cam, velocities v -> R v (metric already). E.g. the map
+  /// frame turned gravity-aligned and metric by the visual-inertial alignment.
+  void transformAbout(const Eigen::Vector3d& centre, const Eigen::Matrix3d& R, double s);
 
   /// Copy of the newest `window_keyframes` keyframes and the points with >= 2 observations in them. The
   /// `num_fixed_oldest` oldest window keyframes are held fixed (gauge and scale); keyframes outside the

@@ -167,8 +167,14 @@ class Pipeline {
   /// Vision + altimeter, metric map: the altimeter ranges of the BA window's keyframes (but the oldest)
   /// against planes fitted to the current map.
   std::vector<BaRangeObservation> altimeterRanges() const;
-  /// Camera + IMU mode usable: enabled and a gravity-aligned world (initial pose handed over).
-  bool inertialActive() const { return config_.imu.enabled && initial_pose_given_; }
+  /// Camera + IMU mode usable: enabled and a gravity-aligned world (initial pose handed over, or the
+  /// visual-inertial alignment done).
+  bool inertialActive() const { return config_.imu.enabled && (initial_pose_given_ || gravity_aligned_); }
+  /// Camera + IMU without an inertial state yet (no handed-over velocity): the visual-inertial alignment
+  /// (inertial_initializer.h) over the map's keyframes; on success the map becomes metric and
+  /// gravity-aligned (rotated about the first camera when no pose was handed over) and its keyframes get
+  /// their velocities and biases.
+  void tryInertialAlignment(FrameResult* result);
   /// The newest keyframe's inertial state (body), else the state handed over / carried from an older map.
   std::optional<NavState> newestInertialState() const;
   /// Gives a new (metric) keyframe its velocity and biases (propagated by the IMU from the previous
@@ -205,6 +211,7 @@ class Pipeline {
   Pose T_world_cam_ = Pose::Identity();                 // last output pose
   Pose T_world_cam_initial_ = Pose::Identity();         // where the trajectory starts (setInitialPose)
   bool initial_pose_given_ = false;                     // the world is the handed-over, gravity-aligned one
+  bool gravity_aligned_ = false;                        // ... or was made so by the visual-inertial alignment
   std::optional<Eigen::Vector3d> v_initial_world_mps_;  // handed-over velocity at the first image
   std::optional<NavState> carried_inertial_;            // inertial state before / between maps
   /// Covariance (position, attitude, velocity) of the state handed over or carried between maps, and that

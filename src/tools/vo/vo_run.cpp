@@ -55,6 +55,7 @@ struct Options {
   std::string frame_log_path;
   bool quiet = false;
   bool initial_state_from_groundtruth = false;
+  bool initial_pose_only = false;
   std::string velocity_path;
   std::string covariance_path;
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
@@ -82,6 +83,8 @@ void usage(std::ostream& out) {
          "  --quiet           no progress and no summary\n"
          "  --output-velocity FILE  t vx vy vz [m/s, world] and the IMU bias estimates of every frame\n"
          "                    with a velocity (camera + IMU mode)\n"
+         "  --initial-pose-only  with --initial-state-from-groundtruth: hand over the pose but not the\n"
+         "                    velocity (the camera + IMU mode then aligns vision and IMU itself)\n"
          "  --initial-error-m DX,DY,DZ / --initial-error-deg RX,RY,RZ  error of the handed-over state:\n"
          "                    position offset (world, m) and rotation vector applied to the attitude (world,\n"
          "                    deg), as vo_eval --initial-error-m/-deg (Monte Carlo campaigns)\n"
@@ -133,6 +136,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!value(&options->covariance_path)) return false;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
+    } else if (arg == "--initial-pose-only") {
+      options->initial_pose_only = true;
     } else if (arg == "--initial-state-from-groundtruth") {
       options->initial_state_from_groundtruth = true;
     } else if (arg == "--quiet") {
@@ -201,7 +206,7 @@ int main(int argc, char** argv) {
           std::find_if(states.begin(), states.end(), [&first](const GroundTruthState& s) {
             return std::abs(s.timestamp_s - first.timestamp_s) < 1e-6;
           });
-      if (at_first != states.end())
+      if (at_first != states.end() && !options.initial_pose_only)
         pipeline.setInitialState(first.T_world_cam, at_first->velocity_world_mps);
       else
         pipeline.setInitialPose(first.T_world_cam);
