@@ -20,7 +20,6 @@
 #include <utility>
 
 #include <ceres/ceres.h>
-#include <ceres/covariance.h>
 #include <ceres/jet.h>
 #include <ceres/rotation.h>
 #include <ceres/manifold.h>
@@ -621,38 +620,85 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
             problem->keyframes[k0].T_cam_world.inverse(), inertial.states[s0].v_world_mps,
             inertial.anchor_covariance)),
         nullptr, poses[k0].q.data(), poses[k0].t.data(), states[s0].v.data());
-    std::vector<std::pair<const double*, const double*>> blocks;
-    std::vector<size_t> with_covariance;
+    // The information matrix J^T J of the free blocks at the solution (tangent space, loss applied), the
+    // points eliminated by their Schur complement, then inverted: the covariance of the poses and states.
+    // Done by hand rather than with ceres::Covariance, whose sparse QR declares the whole problem
+    // rank-deficient when far terrain (Main Brake, 15 km) leaves point depths nearly free next to the IMU
+    // factors' large weights; a point's own 3x3 block is inverted with a tiny regularisation instead, which
+    // leaves its weak depth weak.
+    std::vector<double*> camera_blocks, point_blocks;
+    std::unordered_map<const double*, int> offset;
+    int nc = 0;
+    auto addCamera = [&](double* block) {
+      if (ceres_problem.IsParameterBlockConstant(block) || offset.count(block)) return;
+      offset[block] = nc;
+      nc += 3;
+      camera_blocks.push_back(block);
+    };
+    for (size_t k = 0; k < poses.size(); ++k) {
+      if (!pose_used[k]) continue;
+      addCamera(poses[k].q.data());
+      addCamera(poses[k].t.data());
+    }
     for (size_t st = 0; st < states.size(); ++st) {
       if (!state_used[st]) continue;
-      const size_t k = keyframe_index.at(inertial.states[st].keyframe_id);
-      if (problem->keyframes[k].fixed && st != s0) continue;
-      const double* b[3] = {poses[k].q.data(), poses[k].t.data(), states[st].v.data()};
-      for (int i = 0; i < 3; ++i)
-        for (int j = i; j < 3; ++j) blocks.emplace_back(b[i], b[j]);
-      with_covariance.push_back(st);
+      for (double* block : {states[st].v.data(), states[st].bg.data(), states[st].ba.data()}) addCamera(block);
     }
-    ceres::Covariance::Options covariance_options;
-    covariance_options.algorithm_type = ceres::SPARSE_QR;
-    covariance_options.num_threads = 1;
-    ceres::Covariance covariance(covariance_options);
-    bool computed = covariance.Compute(blocks, &ceres_problem);
-    if (!computed) {
-      // Far terrain (Main Brake, 15 km) leaves point depths that the sparse QR finds rank-deficient next to
-      // the IMU factors' large weights, and then no covariance at all. Fall back to the points held: the
-      // pose and velocity covariance without the map's uncertainty (smaller than the truth).
-      for (size_t j = 0; j < points.size(); ++j)
-        if (point_used[j] && !pointConstant(j)) ceres_problem.SetParameterBlockConstant(points[j].data());
-      computed = covariance.Compute(blocks, &ceres_problem);
-      summary.covariance_points_held = computed;
+    for (size_t j = 0; j < points.size(); ++j)
+      if (point_used[j] && !pointConstant(j) && range_support[j]) addCamera(points[j].data());
+    for (size_t j = 0; j < points.size(); ++j)
+      if (point_used[j] && !pointConstant(j) && !range_support[j]) point_blocks.push_back(points[j].data());
+    ceres::Problem::EvaluateOptions evaluate_options;
+    evaluate_options.parameter_blocks = camera_blocks;
+    evaluate_options.parameter_blocks.insert(evaluate_options.parameter_blocks.end(), point_blocks.begin(),
+                                             point_blocks.end());
+    ceres::CRSMatrix jacobian;
+    bool computed = ceres_problem.Evaluate(evaluate_options, nullptr, nullptr, nullptr, &jacobian) &&
+                    jacobian.num_cols == nc + 3 * static_cast<int>(point_blocks.size());
+    std::vector<size_t> with_covariance;
+    Eigen::MatrixXd covariance_cc;
+    if (computed) {
+      const size_t np = point_blocks.size();
+      Eigen::MatrixXd H_cc = Eigen::MatrixXd::Zero(nc, nc);
+      Eigen::MatrixXd H_cp = Eigen::MatrixXd::Zero(nc, 3 * static_cast<int>(np));
+      std::vector<Eigen::Matrix3d> H_pp(np, Eigen::Matrix3d::Zero());
+      for (int r = 0; r < jacobian.num_rows; ++r) {
+        for (int a = jacobian.rows[r]; a < jacobian.rows[r + 1]; ++a) {
+          const int ca = jacobian.cols[a];
+          const double va = jacobian.values[a];
+          for (int b = jacobian.rows[r]; b < jacobian.rows[r + 1]; ++b) {
+            const int cb = jacobian.cols[b];
+            const double v = va * jacobian.values[b];
+            if (ca < nc && cb < nc) {
+              H_cc(ca, cb) += v;
+            } else if (ca < nc && cb >= nc) {
+              H_cp(ca, cb - nc) += v;
+            } else if (ca >= nc && cb >= nc && (ca - nc) / 3 == (cb - nc) / 3) {
+              H_pp[(ca - nc) / 3]((ca - nc) % 3, (cb - nc) % 3) += v;
+            }
+          }
+        }
+      }
+      Eigen::MatrixXd S = H_cc;
+      for (size_t j = 0; j < np; ++j) {
+        const Eigen::Matrix3d Hj = H_pp[j] + (1e-12 * H_pp[j].trace() + 1e-300) * Eigen::Matrix3d::Identity();
+        const Eigen::Matrix<double, Eigen::Dynamic, 3> B = H_cp.middleCols<3>(3 * static_cast<int>(j));
+        S.noalias() -= B * Hj.inverse() * B.transpose();
+      }
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+      computed = ldlt.info() == Eigen::Success && ldlt.isPositive();
+      if (computed) covariance_cc = ldlt.solve(Eigen::MatrixXd::Identity(nc, nc));
     }
     if (computed) {
-      for (size_t st : with_covariance) {
+      for (size_t st = 0; st < states.size(); ++st) {
+        if (!state_used[st]) continue;
         const size_t k = keyframe_index.at(inertial.states[st].keyframe_id);
-        Eigen::Matrix<double, 9, 9, Eigen::RowMajor> tangent;
-        if (!covariance.GetCovarianceMatrixInTangentSpace(
-                {poses[k].q.data(), poses[k].t.data(), states[st].v.data()}, tangent.data()))
-          continue;
+        const double* b[3] = {poses[k].q.data(), poses[k].t.data(), states[st].v.data()};
+        if (!offset.count(b[0]) || !offset.count(b[1]) || !offset.count(b[2])) continue;
+        Eigen::Matrix<double, 9, 9> tangent;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            tangent.block<3, 3>(3 * i, 3 * j) = covariance_cc.block<3, 3>(offset.at(b[i]), offset.at(b[j]));
         // Tangent space of q_cam_world: R_cam_world <- Exp(2 delta) R_cam_world (Ceres' quaternion
         // manifold, half-angle delta). Then theta_world = -2 R_world_cam delta and
         // p_world_cam = -R_world_cam t_cam_world moves by -2 R_world_cam [t]x delta - R_world_cam dt.

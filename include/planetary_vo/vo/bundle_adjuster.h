@@ -125,10 +125,11 @@ struct BaInertial {
   std::vector<BaInertialState> states;
   std::vector<BaImuConstraint> constraints;  ///< both keyframes must have a state
   std::vector<BaBiasPrior> bias_priors;
-  /// After the solve, the covariance of every state (BaInertialState::covariance): the solution's
-  /// information with the oldest state's fixed pose and velocity released under a prior of
-  /// anchor_covariance (same order as the output), so that what the window's gauge holds fixed carries the
-  /// uncertainty it had. Left out (has_covariance false) when the problem is rank-deficient.
+  /// After the solve, the covariance of every state (BaInertialState::covariance): the inverse of the
+  /// solution's information (J^T J with the points eliminated by their Schur complement) with the oldest
+  /// state's fixed pose and velocity released under a prior of anchor_covariance (same order as the
+  /// output), so that what the window's gauge holds fixed carries the uncertainty it had. Left out
+  /// (has_covariance false) when the reduced information is not positive definite.
   bool compute_covariance = false;
   Eigen::Matrix<double, 9, 9> anchor_covariance = Eigen::Matrix<double, 9, 9>::Identity();
 };
@@ -151,8 +152,6 @@ struct BaSummary {
   int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
   int imu_factors = 0;          ///< preintegrated IMU factors that took part
   double covariance_ms = 0.0;   ///< time of the covariance (BaInertial::compute_covariance)
-  /// The covariance had to hold the points (rank-deficient with them: far terrain); it is then too small.
-  bool covariance_points_held = false;
   /// Observations whose error after the adjustment exceeds the robust-loss scale times 3: the pipeline drops
   /// them. The threshold is 3 * robust_loss_scale_px also with robust_loss none. Points behind their camera
   /// are listed too. refinePose() reports keyframe_id 0 and point_id = index into its p_world/px vectors.
