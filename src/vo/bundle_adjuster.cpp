@@ -605,7 +605,7 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
     }
   }
   summary.converged = usable;
-  if (usable && inertial.compute_covariance && free_states > 0 &&
+  if (usable && inertial.compute_covariance && free_states > 0 && state_used[0] &&
       problem->keyframes[keyframe_index.at(inertial.states.front().keyframe_id)].fixed) {
     const auto covariance_start = std::chrono::steady_clock::now();
     // Release the oldest state's held pose and velocity under the anchor prior, then read the marginal

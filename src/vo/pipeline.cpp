@@ -585,7 +585,9 @@ void Pipeline::insertKeyframe(FrameResult* result) {
     if (!metric_scale_) tryMetricScaleAtKeyframe(result);
   }
   attachInertialState(insertion.keyframe_id, result);
-  if (config_.imu.enabled && !newestInertialState()) tryInertialAlignment(result);
+  // No inertial state yet (no handed-over velocity), or the chain broke at an IMU gap: align again over the
+  // keyframes since (the gravity direction and the scale are known by then).
+  if (config_.imu.enabled && !map_.keyframes().back().has_inertial_state) tryInertialAlignment(result);
   result->times.mapping_ms = msSince(start);
   runBundleAdjustment(result);
 }
@@ -766,7 +768,8 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
   in.preintegrations = pre;
   in.T_cam_imu = inertial_.T_cam_imu();
   in.gravity_mps2 = config_.imu.gravity_mps2;
-  if (initial_pose_given_) in.known_gravity_map = inertial_.gravityWorld();
+  const bool world_aligned = initial_pose_given_ || gravity_aligned_;
+  if (world_aligned) in.known_gravity_map = inertial_.gravityWorld();
   in.known_scale = metric_scale_;
   in.gyro_bias_prior_sigma_radps = config_.imu.gyro_turn_on_bias_radps;
   const InertialAlignment a = alignVisualInertial(in);
@@ -778,7 +781,7 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
   // (the initial pose); yaw stays the map's.
   const Eigen::Vector3d centre = T_world_cam_initial_.translation();
   const Eigen::Matrix3d R =
-      initial_pose_given_
+      world_aligned
           ? Eigen::Matrix3d::Identity()
           : Eigen::Quaterniond::FromTwoVectors(a.gravity_map.normalized(), -Eigen::Vector3d::UnitZ())
                 .toRotationMatrix();
@@ -808,7 +811,7 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
                      " keyframes: scale x" + std::to_string(a.scale) + " (1-sigma " +
                      std::to_string(100.0 * a.scale_sigma) + " %), gyro bias " +
                      std::to_string(a.gyro_bias_radps.norm()) + " rad/s" +
-                     (initial_pose_given_ ? "" : ", world turned gravity-aligned");
+                     (world_aligned ? "" : ", world turned gravity-aligned");
 }
 
 std::optional<NavState> Pipeline::navStateAt(double t_s) const {
@@ -914,6 +917,16 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
     inertial.states.clear();
     return;
   }
+  // Only states that an IMU factor ties (across a gap a keyframe may have a state but no factor).
+  inertial.states.erase(
+      std::remove_if(inertial.states.begin(), inertial.states.end(),
+                     [&](const BaInertialState& st) {
+                       return std::none_of(inertial.constraints.begin(), inertial.constraints.end(),
+                                           [&](const BaImuConstraint& c) {
+                                             return c.keyframe_i == st.keyframe_id || c.keyframe_j == st.keyframe_id;
+                                           });
+                     }),
+      inertial.states.end());
   // The covariance of the window's states, the oldest (held) one released under the covariance it had: its
   // own from an earlier window, else the newest known one moved on to it by the IMU's noise.
   const Keyframe* anchor = map_.keyframe(inertial.states.front().keyframe_id);

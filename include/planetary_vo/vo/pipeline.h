@@ -170,10 +170,10 @@ class Pipeline {
   /// Camera + IMU mode usable: enabled and a gravity-aligned world (initial pose handed over, or the
   /// visual-inertial alignment done).
   bool inertialActive() const { return config_.imu.enabled && (initial_pose_given_ || gravity_aligned_); }
-  /// Camera + IMU without an inertial state yet (no handed-over velocity): the visual-inertial alignment
-  /// (inertial_initializer.h) over the map's keyframes; on success the map becomes metric and
-  /// gravity-aligned (rotated about the first camera when no pose was handed over) and its keyframes get
-  /// their velocities and biases.
+  /// Camera + IMU without an inertial state at the newest keyframe (no handed-over velocity, or the chain
+  /// broken by an IMU gap): the visual-inertial alignment (inertial_initializer.h) over the newest keyframes
+  /// the IMU covers without a gap; on success the map becomes metric and gravity-aligned (rotated about the
+  /// first camera when it was not yet) and those keyframes get their velocities and biases.
   void tryInertialAlignment(FrameResult* result);
   /// The newest keyframe's inertial state (body), else the state handed over / carried from an older map.
   std::optional<NavState> newestInertialState() const;

@@ -126,7 +126,8 @@ ImuSample imuReading(double t, cv::RNG* rng) {
 /// velocity too, and the IMU samples up to each image.
 SequenceRun runSequence(const VoConfig& config, int num_frames, int blackout_begin = -1,
                         int blackout_end = -1, bool aided = false, bool imu = false,
-                        bool hand_over_velocity = true) {
+                        bool hand_over_velocity = true, double imu_gap_begin_s = -1.0,
+                        double imu_gap_end_s = -1.0) {
   static const cv::Mat texture = groundTexture();
   const PinholeCamera camera = PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0);
   Pipeline pipeline(config, camera);
@@ -141,8 +142,11 @@ SequenceRun runSequence(const VoConfig& config, int num_frames, int blackout_beg
     const double t = i / kRateHz;
     const Pose T_world_cam = truePose(t);
     if (aided) pipeline.addAltimeter(altimeterReading(t, &rng));
-    for (; imu && next_imu / kImuRateHz <= t + 1e-9; ++next_imu)
-      pipeline.addImu(imuReading(next_imu / kImuRateHz, &imu_rng));
+    for (; imu && next_imu / kImuRateHz <= t + 1e-9; ++next_imu) {
+      const double t_imu = next_imu / kImuRateHz;
+      const ImuSample sample = imuReading(t_imu, &imu_rng);
+      if (t_imu < imu_gap_begin_s || t_imu >= imu_gap_end_s) pipeline.addImu(sample);
+    }
     run.ground_truth.push_back({t, T_world_cam});
     const bool black = i >= blackout_begin && i < blackout_end;
     const cv::Mat image =
@@ -456,6 +460,31 @@ TEST(Pipeline, VisualInertialAlignmentWaitsForAnObservableScale) {
     EXPECT_GE(attempts, 5);
     EXPECT_NE(last_reason.find(pose_handed_over ? "scale is not observable" : "gravity"), std::string::npos);
   }
+}
+
+// An IMU gap (0.5 s, ten times imu.max_gap_s) breaks the inertial chain: the keyframes across it are not tied,
+// the status says so, and the chain restarts by itself (alignment over the keyframes after the gap, with the
+// gravity direction and the scale already known) instead of staying vision-only for the rest of the descent.
+TEST(Pipeline, ImuGapBreaksTheChainWhichRestartsByItself) {
+  VoConfig config;
+  config.imu.enabled = true;
+  const SequenceRun run = runSequence(config, 100, -1, -1, false, true, true, 3.0, 3.5);
+  int broken_after_gap = 0, restarted_at = -1;
+  for (const FrameResult& r : run.results) {
+    if (r.timestamp_s > 3.5 && !r.inertial) ++broken_after_gap;
+    if (r.message.find("visual-inertial alignment over") != std::string::npos && restarted_at < 0)
+      restarted_at = static_cast<int>(r.frame_index);
+  }
+  const MetricErrors e = metricErrors(run);
+  std::cout << "IMU gap 3.0-3.5 s: " << broken_after_gap << " frames without IMU factors after it, restarted at frame "
+            << restarted_at << "; final position error " << e.final_position_m << " m, velocity "
+            << e.final_velocity_mps << " m/s\n";
+  EXPECT_GT(broken_after_gap, 0);
+  EXPECT_GT(restarted_at, 35);
+  EXPECT_TRUE(run.results.back().inertial);
+  EXPECT_TRUE(run.results.back().metric_scale);
+  EXPECT_LT(e.final_velocity_mps, 0.3);
+  EXPECT_LT(e.final_position_m, 0.01 * e.path_m);
 }
 
 TEST(Pipeline, RejectsBadImuSamples) {
