@@ -35,6 +35,8 @@ namespace {
 /// which a dense Cholesky factorises faster than any sparse one (no symbolic analysis). Larger ones go
 /// sparse.
 constexpr int kMaxDensePoses = 30;
+/// Initial Levenberg-Marquardt trust region of windows with inertial states (see where it is used).
+constexpr double kInertialInitialTrustRegionRadius = 1e12;
 
 /// Pixel residual of one observation: K * (R * p + t) projected, minus the measured ideal pixel.
 struct ReprojectionResidual {
@@ -543,6 +545,11 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
   if (free_poses + free_points + free_states > 0) {
     ceres::Solver::Options options;
     options.max_num_iterations = config.max_iterations;
+    // With IMU factors (whitened by a preintegration covariance of ~1e-6 m and rad) Ceres' default initial
+    // trust region (1e4) damps the first steps so much that Levenberg-Marquardt needed 17 iterations per
+    // window on main_brake_down (10 keyframes, 900 points, 9 IMU and 9 range factors, ~200 ms: the next frame
+    // waited for it); starting with Gauss-Newton-like steps it needs 3 (24 ms mean), same accuracy.
+    if (free_states > 0) options.initial_trust_region_radius = kInertialInitialTrustRegionRadius;
     options.num_threads = 1;
     options.logging_type = ceres::SILENT;
     options.minimizer_progress_to_stdout = false;
