@@ -21,6 +21,8 @@ PACKAGES=(
   catkin-lint
   # core library dependencies
   libopencv-dev libeigen3-dev libceres-dev libyaml-cpp-dev
+  # glog: Ceres logs through it; vo_run sets its level
+  libgoogle-glog-dev
   # plots of the trajectory evaluator
   python3-matplotlib python3-numpy
   # GUI parts: rviz, headless X for screenshots in CI

@@ -16,6 +16,19 @@
 #include "planetary_vo/ros_io/conversions.h"
 
 namespace planetary_vo::ros_io {
+namespace {
+
+/// Linear and angular velocity into a geometry_msgs/Twist.
+void setTwist(const Eigen::Vector3d& v, const Eigen::Vector3d& w, geometry_msgs::Twist* twist) {
+  twist->linear.x = v.x();
+  twist->linear.y = v.y();
+  twist->linear.z = v.z();
+  twist->angular.x = w.x();
+  twist->angular.y = w.y();
+  twist->angular.z = w.z();
+}
+
+}  // namespace
 
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info) {
   const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
@@ -121,12 +134,7 @@ nav_msgs::Odometry toOdometry(const FrameResult& result, const Pose& T_world_chi
                                     (T_world_child.translation() - T_world_prev.translation()) / dt_s;
     const Eigen::AngleAxisd aa(T_prev_child.rotation());
     const Eigen::Vector3d w_child = aa.axis() * aa.angle() / dt_s;
-    odom.twist.twist.linear.x = v_child.x();
-    odom.twist.twist.linear.y = v_child.y();
-    odom.twist.twist.linear.z = v_child.z();
-    odom.twist.twist.angular.x = w_child.x();
-    odom.twist.twist.angular.y = w_child.y();
-    odom.twist.twist.angular.z = w_child.z();
+    setTwist(v_child, w_child, &odom.twist.twist);
     for (int i = 0; i < 3; ++i) {
       odom.twist.covariance[i * 7] = 2.0 * var_p / (dt_s * dt_s);
       odom.twist.covariance[(i + 3) * 7] = 2.0 * var_r / (dt_s * dt_s);
@@ -190,12 +198,7 @@ nav_msgs::Odometry toNavOdometry(const NavSolution& s, const Pose& T_cam_imu, co
       s.v_world_mps + w_world.cross(T_world_child.translation() - T_world_body.translation());
   const Eigen::Vector3d v_child = R_world_child.transpose() * v_world_child;
   const Eigen::Vector3d w_child = R_child_body * s.w_body_radps;
-  odom.twist.twist.linear.x = v_child.x();
-  odom.twist.twist.linear.y = v_child.y();
-  odom.twist.twist.linear.z = v_child.z();
-  odom.twist.twist.angular.x = w_child.x();
-  odom.twist.twist.angular.y = w_child.y();
-  odom.twist.twist.angular.z = w_child.z();
+  setTwist(v_child, w_child, &odom.twist.twist);
   // Pose covariance of the child: position error dp_child = dp_cam - [R_world_cam t_cam_child]x dtheta for a
   // world-frame attitude error dtheta, which the child shares.
   Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();

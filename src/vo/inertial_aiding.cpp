@@ -49,10 +49,6 @@ void InertialAiding::add(const ImuSample& sample) {
   }
 }
 
-double InertialAiding::newestTime_s() const {
-  return first_ < samples_.size() ? samples_.back().timestamp_s : -std::numeric_limits<double>::infinity();
-}
-
 std::string InertialAiding::coverageProblem(double t0_s, double t1_s) const {
   if (!(t1_s > t0_s)) return "empty interval";
   if (first_ >= samples_.size()) return "no IMU samples";

@@ -311,10 +311,7 @@ Pose Pipeline::predictPose() const {
   // handed-over state), as long as the map is metric like the IMU.
   if (config_.pipeline.trajectory_mode == TrajectoryMode::kMap && inertialActive() &&
       (metric_scale_ || stage_ == PipelineStage::kInitialising)) {
-    const std::optional<NavState> from = newestInertialState();
-    if (from && timestamp_s_ >= from->timestamp_s && timestamp_s_ - from->timestamp_s <= kMaxInertialBridgeS)
-      if (const std::optional<NavState> now = inertial_.propagate(*from, timestamp_s_))
-        return inertial_.cameraPose(*now);
+    if (const std::optional<NavState> now = inertialStateNow()) return inertial_.cameraPose(*now);
   }
   if (!last_good_.valid) return T_world_cam_;
   return predictConstantVelocity(last_good_.T_world_cam, last_good_.timestamp_s, map_, timestamp_s_);
@@ -734,6 +731,13 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
 
 namespace planetary_vo {
 
+std::optional<NavState> Pipeline::inertialStateNow() const {
+  const std::optional<NavState> from = newestInertialState();
+  if (!from || timestamp_s_ < from->timestamp_s || timestamp_s_ - from->timestamp_s > kMaxInertialBridgeS)
+    return std::nullopt;
+  return inertial_.propagate(*from, timestamp_s_);
+}
+
 std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> Pipeline::newestCovariance() const {
   const auto& kfs = map_.keyframes();
   for (auto it = kfs.rbegin(); it != kfs.rend(); ++it)
@@ -954,10 +958,7 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
 
 void Pipeline::fillInertialOutput(FrameResult* result) const {
   if (!inertialActive()) return;
-  const std::optional<NavState> from = newestInertialState();
-  if (!from || timestamp_s_ < from->timestamp_s || timestamp_s_ - from->timestamp_s > kMaxInertialBridgeS)
-    return;
-  const std::optional<NavState> now = inertial_.propagate(*from, timestamp_s_);
+  const std::optional<NavState> now = inertialStateNow();
   if (!now) return;
   result->has_velocity = true;
   result->v_world_mps = now->v_world_mps;

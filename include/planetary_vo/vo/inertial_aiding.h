@@ -53,7 +53,6 @@ class InertialAiding {
 
   void clear() { samples_.clear(); }
   size_t size() const { return samples_.size(); }
-  double newestTime_s() const;
   const Eigen::Vector3d& gravityWorld() const { return gravity_world_; }
   const Pose& T_cam_imu() const { return T_cam_imu_; }
   const ImuNoiseParams& noise() const { return noise_; }

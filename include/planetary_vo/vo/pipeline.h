@@ -177,6 +177,9 @@ class Pipeline {
   void tryInertialAlignment(FrameResult* result);
   /// The newest keyframe's inertial state (body), else the state handed over / carried from an older map.
   std::optional<NavState> newestInertialState() const;
+  /// newestInertialState() moved on by the IMU to the current image time (at most kMaxInertialBridgeS), or
+  /// nullopt.
+  std::optional<NavState> inertialStateNow() const;
   /// Gives a new (metric) keyframe its velocity and biases (propagated by the IMU from the previous
   /// keyframe, or from newestInertialState()) and the preintegration from the previous keyframe.
   void attachInertialState(uint64_t keyframe_id, FrameResult* result);
