@@ -80,7 +80,8 @@ endif()
 #   ros_test_vo_conversions  gtest, no master: image conversion, input checks, status/odometry/cloud conversions
 #   rostests with the gtest nodes
 #     test_vo_node       vo_end_to_end (player node -> nodelet) and vo_bag (rosbag play of a `player --bag` bag):
-#                        Sim(3) ATE bound, map, tf world -> camera, status stream
+#                        Sim(3) ATE bound, map, tf world -> camera, status stream; vo_reconfigure: the same with the
+#                        dynamic_reconfigure knobs changed mid-run (in place: no re-initialisation, no scale jump)
 #     test_vo_bad_input  vo_bad_input_<case>: crafted images/camera_info published directly to the nodelet;
 #                        case samples: bad IMU / altimeter samples into the fused configuration
 #     test_vo_manager    vo_reload: unload and reload of the nodelet in a running manager
@@ -126,6 +127,8 @@ if(TARGET GTest::gtest)
               DEPENDENCIES test_vo_node player ${vo_deps})
   add_rostest(test/ros/vo_bag.test ARGS bag:=${VO_TEST_BAG} dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_vo_node ${vo_deps})
+  add_rostest(test/ros/vo_reconfigure.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_node player ${vo_deps})
   foreach(case encoding info_missing size_mismatch bad_intrinsics black saturated stamps dropped resolution)
     add_rostest(test/ros/vo_bad_input.test ARGS case:=${case} dataset:=${VO_TEST_DATASET}
                 DEPENDENCIES test_vo_bad_input ${vo_deps})

@@ -8,11 +8,11 @@
 /// diagnostics from status_reporter.h and every estimate from the ROS-free Pipeline.
 ///
 /// Threading: all callbacks use the nodelet's single-threaded node handles, so they never overlap; the
-/// dynamic_reconfigure knobs are handed over under a mutex anyway and applied between two frames. No
-/// exception leaves a callback: every pipeline call is guarded, a refused sample is counted and reported in
+/// dynamic_reconfigure knobs are handed over under a mutex anyway and applied between two frames, in place
+/// (Pipeline::reconfigure: the nodelet holds no estimation state of its own). No exception leaves a callback:
+/// every pipeline call is guarded, a refused sample or reconfiguration is counted or logged and reported in
 /// vo/status.
 
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -84,11 +84,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
     reconfigure_ =
         std::make_unique<dynamic_reconfigure::Server<VoReconfigureConfig>>(reconfigure_mutex_, pnh);
-    VoReconfigureConfig knobs;
-    knobs.num_features = config_.detector.num_features;
-    knobs.motion_model = toString(config_.motion.model);
-    knobs.bundle_adjustment_enabled = config_.bundle_adjustment.enabled;
-    reconfigure_->updateConfig(knobs);
+    reconfigure_->updateConfig(knobsOf(config_));
     reconfigure_->setCallback(
         [this](VoReconfigureConfig& knobs, uint32_t level) { reconfigureCb(knobs, level); });
     initial_state_sub_ = nh.subscribe("nav/initial_state", 1, &VisualOdometryNodelet::initialStateCb, this);
@@ -133,6 +129,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     FrameResult result;
     Clock::duration process_time{};
     try {
+      // Between two frames: a dynamic_reconfigure change goes into the running pipeline in place (or into
+      // the configuration of the pipeline made below).
+      applyPendingConfig(&note);
       if (!pipeline_) {
         pipeline_ = makePipeline(config_, camera);
         imu_buffer_.restart();
@@ -144,12 +143,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
         pipeline_->setCamera(camera);
         note += (note.empty() ? "" : "; ") + std::string("camera_info changed: re-initialising");
       }
-      // A configuration change rebuilds the pipeline: before anything is given to a fresh one, else once it
-      // has the samples up to this image (the rebuilt one is handed its state at t).
-      if (!started_) applyPendingConfig(t);
       if (!started_ && pending_state_ && !applyInitialState(&why)) return hold(why, image->header, t);
       giveSamplesUpTo(t);
-      if (started_) applyPendingConfig(t);
       const Clock::time_point process_start = Clock::now();
       result = pipeline_->process(t, gray);
       process_time = Clock::now() - process_start;
@@ -265,8 +260,6 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     ++counts_.num_imu_used;
     last_gyro_radps_ = s.angular_velocity_radps;
     have_gyro_ = true;
-    given_imu_.push_back(s);
-    while (given_imu_.front().timestamp_s < s.timestamp_s - kHistoryS) given_imu_.pop_front();
   }
 
   void giveAltimeter(const AltimeterSample& s) {
@@ -279,8 +272,6 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       ++counts_.num_altimeter_used;
     else
       ++counts_.num_altimeter_no_range;
-    given_altimeter_.push_back(s);
-    while (given_altimeter_.front().timestamp_s < s.timestamp_s - kHistoryS) given_altimeter_.pop_front();
   }
 
   void rejectImu(const std::string& why) {
@@ -296,17 +287,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   /// Pose, odometry, path, map points and tf of a processed frame; false if the pose was not finite (held).
   bool publishPose(const FrameResult& result, const std_msgs::Header& header, const std::string& child) {
-    Pose T_world_cam = anchor_.transformPose(result.T_world_cam);
-    if (anchor_scale_pending_) {
-      if (!result.hasPoseEstimate() || result.T_world_cam.translation().norm() <= 0.0) {
-        T_world_cam = last_pose_;
-      } else {  // first pose of a rebuilt pipeline: bridge the scale with the speed before the rebuild
-        const double travelled = speed_ * (result.timestamp_s - anchor_time_s_);
-        anchor_.scale = travelled > 0.0 ? travelled / result.T_world_cam.translation().norm() : 1.0;
-        anchor_scale_pending_ = false;
-        T_world_cam = anchor_.transformPose(result.T_world_cam);
-      }
-    }
+    Pose T_world_cam = result.T_world_cam;
     if (!T_world_cam.matrix().allFinite()) {
       NODELET_ERROR_THROTTLE(5, "the pipeline returned a non-finite pose: holding the last pose");
       T_world_cam = last_pose_;
@@ -326,8 +307,6 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
     nav_child_ = child;
     const double dt = have_last_pose_ ? result.timestamp_s - last_pose_time_s_ : 0.0;
-    if (result.hasPoseEstimate() && have_last_pose_ && dt > 0.0)
-      speed_ = (T_world_cam.translation() - last_pose_.translation()).norm() / dt;
     pose_pub_.publish(toPoseStamped(T_world_child, header));
     const OdometrySigma sigma{params_.position_sigma_m, params_.orientation_sigma_rad,
                               params_.lost_sigma_factor, config_.pnp.min_inliers * 4};
@@ -345,7 +324,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (path_pub_.getNumSubscribers() > 0) path_pub_.publish(path_);
     if (map_pub_.getNumSubscribers() > 0) {
       pipeline_->mapPoints(&map_points_);
-      map_pub_.publish(toPointCloud(map_points_, header, anchor_));
+      map_pub_.publish(toPointCloud(map_points_, header));
     }
     last_pose_ = T_world_cam;
     last_child_pose_ = T_world_child;
@@ -371,7 +350,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     s.covariance = nav_covariance_;
     if (r.has_velocity) {
       T_cam_body_ = pipeline_->T_cam_imu();
-      s.v_world_mps = anchor_.scale * (anchor_.R_gt_est * r.v_world_mps);
+      s.v_world_mps = r.v_world_mps;
       s.w_body_radps =
           have_gyro_ ? Eigen::Vector3d(last_gyro_radps_ - r.imu_bias.gyro_radps) : Eigen::Vector3d::Zero();
       s.w_covariance = gyroCovariance();
@@ -410,8 +389,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
     if (!state || !isFinite(*state)) return;
     NavSolution s;
-    s.T_world_cam = anchor_.transformPose(state->T_world_body * pipeline_->T_cam_imu().inverse());
-    s.v_world_mps = anchor_.scale * (anchor_.R_gt_est * state->v_world_mps);
+    s.T_world_cam = state->T_world_body * pipeline_->T_cam_imu().inverse();
+    s.v_world_mps = state->v_world_mps;
     s.w_body_radps = last_gyro_radps_ - state->gyro_bias_radps;
     s.covariance = nav_covariance_;
     s.w_covariance = gyroCovariance();
@@ -487,6 +466,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       append("altimeter reading rejected: " + altimeter_problem_ + " (" +
              std::to_string(counts_.num_altimeter_rejected) + " so far)");
     if (!initial_state_problem_.empty()) append(initial_state_problem_);
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      if (!reconfigure_problem_.empty()) append(reconfigure_problem_);
+      reconfigure_problem_.clear();
+    }
     imu_problem_.clear();
     altimeter_problem_.clear();
     initial_state_problem_.clear();
@@ -501,66 +485,69 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     return std::make_unique<Pipeline>(config, camera);
   }
 
-  /// Between two frames (the samples up to the image at t given): a changed configuration rebuilds the
-  /// pipeline. With an inertial state (fused modes) the rebuilt pipeline is handed the old one's state at t
-  /// (Pipeline::navStateAt) and the recent samples, so it continues in the same metric world. Otherwise it is
-  /// attached to the last pose (it starts at its own origin; its scale is bridged with the last speed, see
-  /// publishPose()).
-  void applyPendingConfig(double t) {
+  /// The knobs of a configuration.
+  static VoReconfigureConfig knobsOf(const VoConfig& config) {
+    VoReconfigureConfig knobs;
+    knobs.num_features = config.detector.num_features;
+    knobs.motion_model = toString(config.motion.model);
+    knobs.bundle_adjustment_enabled = config.bundle_adjustment.enabled;
+    return knobs;
+  }
+
+  /// Between two frames: a changed configuration goes into the running pipeline in place
+  /// (Pipeline::reconfigure keeps tracks, map, trajectory, scale and inertial state), or becomes the
+  /// configuration of the next pipeline when there is none yet. A refused change is logged, reported in
+  /// vo/status and the knobs are set back; the pipeline runs on unchanged. *note gets what was changed.
+  void applyPendingConfig(std::string* note) {
     std::optional<VoConfig> pending;
     {
       std::lock_guard<std::mutex> lock(pending_mutex_);
       pending.swap(pending_config_);
     }
     if (!pending || *pending == config_) return;
+    if (pipeline_) {
+      try {
+        pipeline_->reconfigure(*pending);
+      } catch (const std::exception& e) {
+        const std::string why = std::string("reconfigure rejected, configuration unchanged: ") + e.what();
+        NODELET_ERROR_STREAM(why);
+        {
+          std::lock_guard<std::mutex> lock(pending_mutex_);
+          reconfigure_problem_ = why;
+        }
+        if (reconfigure_) reconfigure_->updateConfig(knobsOf(config_));
+        return;
+      }
+    }
     config_ = *pending;
-    if (!pipeline_) return;
-    const PinholeCamera camera = pipeline_->camera();
-    std::optional<NavState> state;
-    if (started_) state = pipeline_->navStateAt(t);
-    pipeline_ = makePipeline(config_, camera);
-    const bool handed_over = state && isFinite(*state) && anchor_.scale == 1.0 && !anchor_scale_pending_;
-    if (handed_over)
-      pipeline_->setInitialState(state->T_world_body * pipeline_->T_cam_imu().inverse(), state->v_world_mps);
-    // The recent samples, which the old pipeline had: the new one starts at t.
-    for (const ImuSample& s : given_imu_)
-      if (s.timestamp_s >= t + config_.imu.time_offset_s - config_.imu.max_gap_s) pipeline_->addImu(s);
-    for (const AltimeterSample& s : given_altimeter_)
-      if (s.timestamp_s >= t - config_.altimeter.max_time_offset_s) pipeline_->addAltimeter(s);
-    if (handed_over) {
-      NODELET_INFO(
-          "reconfigured: num_features %d, motion model %s, bundle adjustment %s; the inertial state "
-          "at the last image handed to the rebuilt pipeline",
-          config_.detector.num_features, toString(config_.motion.model),
-          config_.bundle_adjustment.enabled ? "on" : "off");
-      return;
-    }
-    if (have_last_pose_) {
-      anchor_ = Sim3Transform();
-      anchor_.R_gt_est = last_pose_.rotation();
-      anchor_.t_gt_est_m = last_pose_.translation();
-      anchor_scale_pending_ = true;
-      anchor_time_s_ = t;
-    }
-    NODELET_INFO("reconfigured: num_features %d, motion model %s, bundle adjustment %s",
-                 config_.detector.num_features, toString(config_.motion.model),
-                 config_.bundle_adjustment.enabled ? "on" : "off");
+    const std::string what = "reconfigured: num_features " + std::to_string(config_.detector.num_features) +
+                             ", motion model " + toString(config_.motion.model) + ", bundle adjustment " +
+                             (config_.bundle_adjustment.enabled ? "on" : "off");
+    NODELET_INFO_STREAM(what << (pipeline_ ? " (in place, the trajectory continues)" : ""));
+    if (pipeline_) *note += (note->empty() ? "" : "; ") + what;
   }
 
   void reconfigureCb(VoReconfigureConfig& knobs, uint32_t /*level*/) {
-    VoConfig next = config_;
-    next.detector.num_features = knobs.num_features;
-    next.bundle_adjustment.enabled = knobs.bundle_adjustment_enabled;
-    for (MotionModel m :
-         {MotionModel::kAuto, MotionModel::kEssential, MotionModel::kFundamental, MotionModel::kHomography})
-      if (knobs.motion_model == toString(m)) next.motion.model = m;
-    const std::vector<std::string> errors = next.validationErrors();
-    if (!errors.empty()) {
-      NODELET_ERROR_STREAM("reconfigure rejected: " << errors.front());
-      return;
+    try {
+      VoConfig next = config_;
+      next.detector.num_features = knobs.num_features;
+      next.bundle_adjustment.enabled = knobs.bundle_adjustment_enabled;
+      for (MotionModel m :
+           {MotionModel::kAuto, MotionModel::kEssential, MotionModel::kFundamental, MotionModel::kHomography})
+        if (knobs.motion_model == toString(m)) next.motion.model = m;
+      const std::vector<std::string> errors = next.validationErrors();
+      if (!errors.empty()) {
+        std::lock_guard<std::mutex> lock(pending_mutex_);
+        reconfigure_problem_ = "reconfigure rejected, configuration unchanged: " + errors.front();
+        NODELET_ERROR_STREAM(reconfigure_problem_);
+        knobs = knobsOf(config_);  // the server reports the knobs in effect
+        return;
+      }
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      pending_config_ = next;
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM("reconfigure: " << e.what());
     }
-    std::lock_guard<std::mutex> lock(pending_mutex_);
-    pending_config_ = next;
   }
 
   bool resetCb(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
@@ -572,15 +559,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     last_nav_stamp_ = last_tf_stamp_ = ros::Time();
     imu_buffer_.restart();
     altimeter_buffer_.restart();
-    given_imu_.clear();
-    given_altimeter_.clear();
     have_gyro_ = false;
-    anchor_ = Sim3Transform();
-    anchor_scale_pending_ = false;
     have_last_pose_ = false;
     last_pose_ = last_child_pose_ = Pose::Identity();
     last_stamp_.reset();
-    period_s_ = speed_ = 0.0;
+    period_s_ = 0.0;
     path_.poses.clear();
     counts_ = VoStatus();
     res.success = true;
@@ -725,9 +708,6 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   int info_count_ = 0;
   VoStatus counts_;  ///< only the counters are used
   std::string child_camera_frame_;
-  Sim3Transform anchor_;  ///< pipeline world -> output world (identity until a reconfigure rebuild)
-  bool anchor_scale_pending_ = false;
-  double anchor_time_s_ = 0.0, speed_ = 0.0;
   Pose last_pose_ = Pose::Identity(), last_child_pose_ = Pose::Identity();
   double last_pose_time_s_ = 0.0;
   bool have_last_pose_ = false;
@@ -735,7 +715,6 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   std::vector<MapPointView> map_points_;
 
   // Fusion inputs (buffers and conversions only: every estimate is the pipeline's).
-  static constexpr double kHistoryS = 1.0;         ///< samples kept after they were given (reconfigure)
   static constexpr double kUnknownVariance = 1e6;  ///< a covariance entry nothing constrains
   std::string mode_ = VoStatus::MODE_VISION;
   ros::Time epoch_;  ///< the pipeline's clock: seconds since this stamp
@@ -745,9 +724,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   bool initial_state_applied_ = false;
   SampleBuffer<ImuSample> imu_buffer_;
   SampleBuffer<AltimeterSample> altimeter_buffer_;
-  std::deque<ImuSample> given_imu_;              ///< the last kHistoryS given to the pipeline
-  std::deque<AltimeterSample> given_altimeter_;  ///< likewise
   std::string imu_problem_, altimeter_problem_, initial_state_problem_;  ///< since the last status
+  std::string reconfigure_problem_;  ///< a refused reconfiguration, until the next status (pending_mutex_)
   Eigen::Vector3d last_gyro_radps_ = Eigen::Vector3d::Zero();            ///< latest gyro sample given
   bool have_gyro_ = false;
   Eigen::Matrix3d gyro_covariance_ = Eigen::Matrix3d::Identity();

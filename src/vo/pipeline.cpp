@@ -5,9 +5,11 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
+#include "config_fields.h"
 #include "planetary_vo/geometry/median.h"
 #include "planetary_vo/vo/inertial_initializer.h"
 #include "planetary_vo/vo/motion_prior.h"
@@ -150,6 +152,73 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
   failed_frames_ = 0;
 }
 
+namespace {
+
+/// "section.key" and value text of every field of a configuration (the key table of config_fields.h).
+class FieldTexts {
+ public:
+  void beginSection(const char* name) { section_ = name; }
+  template <class T, class L>
+  void operator()(const char* key, const T& value, L, L) {
+    std::ostringstream text;
+    text.precision(17);
+    text << value;
+    add(key, text.str());
+  }
+  void operator()(const char* key, const bool& value) { add(key, value ? "true" : "false"); }
+  template <class E>
+  void enumeration(const char* key, const E& value) {
+    add(key, config_detail::enumName(value));
+  }
+  std::vector<std::pair<std::string, std::string>> fields;
+
+ private:
+  void add(const char* key, std::string text) { fields.emplace_back(section_ + "." + key, std::move(text)); }
+  std::string section_;
+};
+
+}  // namespace
+
+void Pipeline::reconfigure(const VoConfig& next) {
+  // Everything is checked before anything changes: a refused configuration leaves the pipeline as it was.
+  next.validate();
+  VoConfig runtime = config_;  // the current one with the runtime-changeable fields of `next`
+  runtime.detector.num_features = next.detector.num_features;
+  runtime.motion.model = next.motion.model;
+  runtime.bundle_adjustment.enabled = next.bundle_adjustment.enabled;
+  if (runtime != next) {
+    FieldTexts have, want;
+    config_detail::forEachField(runtime, have);
+    config_detail::forEachField(next, want);
+    std::string names;
+    for (size_t i = 0; i < have.fields.size() && i < want.fields.size(); ++i)
+      if (have.fields[i].second != want.fields[i].second)
+        names += (names.empty() ? "" : ", ") + want.fields[i].first + " (" + have.fields[i].second + " -> " +
+                 want.fields[i].second + ")";
+    throw std::invalid_argument("Pipeline::reconfigure: " + names +
+                                ": not changeable at runtime (only detector.num_features, motion.model and "
+                                "bundle_adjustment.enabled are; a new Pipeline takes the rest)");
+  }
+  if (next.detector.num_features != config_.detector.num_features) tracker_.setDetectorConfig(next.detector);
+  if (next.motion.model != config_.motion.model) {
+    Initializer initializer(next.motion, next.map, planeNormalPriorVector(next.motion.plane_normal_prior));
+    if (prior_plane_normal_override_cam_) initializer.setPriorPlaneNormal(*prior_plane_normal_override_cam_);
+    initializer_ = initializer;
+  }
+  if (next.bundle_adjustment.enabled && !async_ba_ && next.bundle_adjustment.asynchronous) {
+    async_ba_ = std::make_unique<AsyncBundleAdjuster>(next.bundle_adjustment);
+  } else if (!next.bundle_adjustment.enabled && async_ba_) {
+    // The solve in flight was submitted at the last keyframe of this map: apply it now, as the next frame
+    // would have, with the covariance the worker computed after it; then stop the worker.
+    async_ba_->waitIdle();
+    if (auto finished = async_ba_->takeResult(); finished && finished->second.converged)
+      map_.applyBaResult(finished->first, finished->second.outliers);
+    if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
+    async_ba_.reset();
+  }
+  config_ = next;
+}
+
 void Pipeline::addAltimeter(const AltimeterSample& sample) {
   if (config_.altimeter.enabled) altimeter_.add(sample);
 }
@@ -179,6 +248,7 @@ void Pipeline::setInitialPose(const Pose& T_world_cam) {
 
 void Pipeline::setPriorPlaneNormal(const Eigen::Vector3d& normal_cam) {
   initializer_.setPriorPlaneNormal(normal_cam);
+  prior_plane_normal_override_cam_ = normal_cam;
 }
 
 FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {

@@ -12,8 +12,16 @@
 ///   ~world_frame, ~camera_frame  frames of the tf lookup ("world", "camera_optical")
 ///   ~manager, ~player (string)   node names of the nodelet manager and the player ("/vo_manager", "/player")
 ///   ~timeout (double, 120)       seconds to wait for the whole stream
+///   ~reconfigure (bool, false)   vo_reconfigure.test: once 15 frames are tracked, change the
+///                                dynamic_reconfigure knobs five times three frames apart
+///                                (~node/set_parameters) and check that the pipeline is changed in place:
+///                                every frame tracked after the first, full scale confidence, and the scale
+///                                of the part before the first change fitting every later step
+///   ~node (string, "/vo")        the VO nodelet's name (its set_parameters service)
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <string>
@@ -21,6 +29,7 @@
 
 #include <gtest/gtest.h>
 
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -49,6 +58,8 @@ class VoEndToEndTest : public ::testing::Test {
     timeout_s_ = pnh.param("timeout", 120.0);
     manager_ = pnh.param<std::string>("manager", "/vo_manager");
     player_ = pnh.param<std::string>("player", "/player");
+    reconfigure_ = pnh.param("reconfigure", false);
+    node_ = pnh.param<std::string>("node", "/vo");
     dataset_ = std::make_unique<Dataset>(Dataset::open(dataset_dir_));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoEndToEndTest::onPose, this));
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoEndToEndTest::onStatus, this));
@@ -83,9 +94,66 @@ class VoEndToEndTest : public ::testing::Test {
     return !statuses_.empty() && statuses_.back().header.stamp >= last;
   }
 
+  size_t numStatuses() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return statuses_.size();
+  }
+  size_t numTracked() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return std::count_if(statuses_.begin(), statuses_.end(),
+                         [](const VoStatus& s) { return s.state == VoStatus::STATE_TRACKING; });
+  }
+
+  /// Five knob changes three frames apart through ~node/set_parameters; the stamp of the last status before
+  /// the first change goes to *before.
+  void changeKnobs(ros::Time* before) {
+    using Edit = std::function<void(dynamic_reconfigure::Config*)>;
+    auto intKnob = [](const char* name, int value) {
+      return Edit([=](dynamic_reconfigure::Config* c) {
+        dynamic_reconfigure::IntParameter p;
+        p.name = name;
+        p.value = value;
+        c->ints.push_back(p);
+      });
+    };
+    auto strKnob = [](const char* name, const char* value) {
+      return Edit([=](dynamic_reconfigure::Config* c) {
+        dynamic_reconfigure::StrParameter p;
+        p.name = name;
+        p.value = value;
+        c->strs.push_back(p);
+      });
+    };
+    auto boolKnob = [](const char* name, bool value) {
+      return Edit([=](dynamic_reconfigure::Config* c) {
+        dynamic_reconfigure::BoolParameter p;
+        p.name = name;
+        p.value = value;
+        c->bools.push_back(p);
+      });
+    };
+    const std::vector<Edit> edits = {intKnob("num_features", 600), strKnob("motion_model", "essential"),
+                                     boolKnob("bundle_adjustment_enabled", false),
+                                     intKnob("num_features", 200),
+                                     boolKnob("bundle_adjustment_enabled", true)};
+    ASSERT_TRUE(ros::service::waitForService(node_ + "/set_parameters", ros::Duration(30.0)));
+    ASSERT_TRUE(waitFor([&] { return numTracked() >= 15; }, timeout_s_)) << "15 frames never tracked";
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      *before = statuses_.back().header.stamp;
+    }
+    for (const Edit& edit : edits) {
+      dynamic_reconfigure::Reconfigure srv;
+      edit(&srv.request.config);
+      ASSERT_TRUE(ros::service::call(node_ + "/set_parameters", srv));
+      const size_t seen = numStatuses();
+      ASSERT_TRUE(waitFor([&] { return numStatuses() >= seen + 3; }, timeout_s_));
+    }
+  }
+
   ros::NodeHandle nh_;
-  std::string dataset_dir_, world_frame_, camera_frame_, manager_, player_;
-  bool live_ = true;
+  std::string dataset_dir_, world_frame_, camera_frame_, manager_, player_, node_;
+  bool live_ = true, reconfigure_ = false;
   double max_ate_percent_ = 5.0, timeout_s_ = 120.0;
   std::unique_ptr<Dataset> dataset_;
   std::vector<ros::Subscriber> subs_;
@@ -118,6 +186,8 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
     ASSERT_TRUE(ros::service::waitForService("/player/resume", ros::Duration(30.0)));
     ASSERT_TRUE(ros::service::call("/player/resume", resume));
   }
+  ros::Time before_change;
+  if (reconfigure_) ASSERT_NO_FATAL_FAILURE(changeKnobs(&before_change));
   ASSERT_TRUE(waitFor([&] { return streamDone(); }, timeout_s_))
       << "stream incomplete: " << ground_truth_.size() << " ground-truth poses, " << statuses_.size()
       << " statuses of " << dataset_->size() << " images";
@@ -167,6 +237,48 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
       tf = tf_buffer_.lookupTransform(world_frame_, camera_frame_, last.header.stamp, ros::Duration(5.0)));
   EXPECT_NEAR(tf.transform.translation.x, last.pose.position.x, 1e-9);
   EXPECT_NEAR(tf.transform.translation.z, last.pose.position.z, 1e-9);
+
+  if (!reconfigure_) return;
+  // The knob changes went into the running pipeline: no re-initialisation (every status after the first
+  // tracked one is TRACKING at full scale confidence), the changes were applied and none refused, and the
+  // scale of the trajectory before the first change (Sim(3) alignment of that part) fits every later step.
+  bool started = false;
+  int applied = 0;
+  for (const VoStatus& s : statuses_) {
+    started = started || s.state == VoStatus::STATE_TRACKING;
+    if (started) {
+      EXPECT_EQ(s.state, VoStatus::STATE_TRACKING) << s.header.stamp << ": " << s.message;
+      EXPECT_EQ(s.scale_confidence, 1.0f) << s.header.stamp << ": " << s.message;
+    }
+    EXPECT_EQ(s.message.find("reconfigure rejected"), std::string::npos) << s.message;
+    if (s.message.find("reconfigured:") != std::string::npos) ++applied;
+  }
+  EXPECT_GE(applied, 4) << "the knob changes did not reach the pipeline";
+  options.align_num_pairs =
+      static_cast<size_t>(std::count_if(estimate.begin(), estimate.end(), [&](const StampedPose& p) {
+        return p.timestamp_s <= before_change.toSec();
+      }));
+  ASSERT_GE(options.align_num_pairs, 10u);
+  const TrajectoryEvaluation first_part = evaluateTrajectory(ground_truth, estimate, options);
+  auto truthAt = [&](double t) -> Eigen::Vector3d {
+    for (const StampedPose& g : ground_truth)
+      if (std::abs(g.timestamp_s - t) < 1e-3) return g.T_world_cam.translation();
+    ADD_FAILURE() << "no ground truth at " << t;
+    return Eigen::Vector3d::Zero();
+  };
+  double worst = 1.0;
+  for (size_t k = options.align_num_pairs; k < estimate.size(); ++k) {
+    const double step =
+        first_part.alignment.scale *
+        (estimate[k].T_world_cam.translation() - estimate[k - 1].T_world_cam.translation()).norm();
+    const double truth = (truthAt(estimate[k].timestamp_s) - truthAt(estimate[k - 1].timestamp_s)).norm();
+    const double ratio = step / truth;
+    if (std::max(ratio, 1.0 / ratio) > std::max(worst, 1.0 / worst)) worst = ratio;
+    EXPECT_LT(std::max(ratio, 1.0 / ratio), 1.5)
+        << "step at t = " << estimate[k].timestamp_s << " is x" << ratio
+        << " the true one with the scale before the changes";
+  }
+  std::printf("reconfigure: %d changes applied, worst step ratio after them %.3f\n", applied, worst);
 }
 
 }  // namespace

@@ -59,6 +59,9 @@ class KltTracker {
   /// Forgets all tracks and the previous image; the next track() starts like the first. Ids keep increasing.
   void reset();
 
+  /// A new detector for the next detections (replenishment, restart, first frame); the live tracks stay.
+  void setDetectorConfig(const DetectorConfig& detector_config) { detector_ = GridDetector(detector_config); }
+
   const TrackerConfig& config() const { return config_; }
   const GridDetector& detector() const { return detector_; }
 

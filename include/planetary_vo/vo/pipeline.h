@@ -23,7 +23,7 @@
 ///
 /// Pixels from the tracker are undistorted (PinholeCamera::undistortPixels) before any geometry.
 ///
-/// Threading: process(), reset() and setCamera() must be called from one thread. With
+/// Threading: process(), reset(), setCamera() and reconfigure() must be called from one thread. With
 /// bundle_adjustment.asynchronous the bundle adjustment of a new keyframe runs in a worker thread owned by
 /// the pipeline while the next image is tracked (KLT); the next process() applies it after tracking and
 /// before estimating the pose, waiting if it is still running. So the adjustment is hidden behind the
@@ -118,6 +118,21 @@ class Pipeline {
   /// the chain re-initialises from the current pose (state lost, then recovered), without a jump.
   void setCamera(const PinholeCamera& camera);
 
+  /// @brief Applies a configuration change to the running pipeline in place, between two process() calls:
+  /// tracks, map, trajectory, scale (and its confidence) and inertial state are all kept, so the trajectory
+  /// continues without a jump and without a new scale. Runtime-changeable fields (every other field of
+  /// `next` must equal config()):
+  /// - detector.num_features: the budget of the next detections (replenishment, restart); live tracks stay.
+  /// - motion.model: the two-view model of the next initialisation or recovery (map mode) or of the next
+  ///   step (unit-step chain); a setPriorPlaneNormal() override is kept.
+  /// - bundle_adjustment.enabled: off waits for a solve still in flight and applies it (it belongs to the
+  ///   current map: the same as the next frame would have done), then stops the worker; on adjusts from the
+  ///   next keyframe (in a worker thread when bundle_adjustment.asynchronous).
+  /// @throws ConfigError when `next` is invalid (VoConfig::validationErrors()); std::invalid_argument naming
+  /// every other field that differs ("tracker.window_size_px, map.window_keyframes: not changeable at
+  /// runtime ..."). The pipeline is unchanged when it throws.
+  void reconfigure(const VoConfig& next);
+
   /// Expected ground-plane normal in the camera (pointing away from it) that decides the homography's
   /// two-fold ambiguity; overrides motion.plane_normal_prior of the config (default none), zero = no prior.
   void setPriorPlaneNormal(const Eigen::Vector3d& normal_cam);
@@ -205,6 +220,8 @@ class Pipeline {
   AltimeterAiding altimeter_;
   InertialAiding inertial_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
+  /// setPriorPlaneNormal()'s override of the configured plane-normal prior, kept across reconfigure().
+  std::optional<Eigen::Vector3d> prior_plane_normal_override_cam_;
 
   // Chain state.
   int64_t frame_index_ = -1;
