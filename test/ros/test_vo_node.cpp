@@ -187,7 +187,9 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
     ASSERT_TRUE(ros::service::call("/player/resume", resume));
   }
   ros::Time before_change;
-  if (reconfigure_) ASSERT_NO_FATAL_FAILURE(changeKnobs(&before_change));
+  if (reconfigure_) {
+    ASSERT_NO_FATAL_FAILURE(changeKnobs(&before_change));
+  }
   ASSERT_TRUE(waitFor([&] { return streamDone(); }, timeout_s_))
       << "stream incomplete: " << ground_truth_.size() << " ground-truth poses, " << statuses_.size()
       << " statuses of " << dataset_->size() << " images";
