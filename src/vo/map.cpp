@@ -6,6 +6,8 @@
 namespace planetary_vo {
 
 void Map::clear() {
+  for (const auto& entry : points_) markRetired(entry.second);
+  pending_restart_ = true;
   keyframes_.clear();
   points_.clear();
   point_by_track_.clear();
@@ -20,6 +22,7 @@ uint64_t Map::addKeyframe(double timestamp_s, const Pose& T_world_cam, const std
   kf.T_world_cam = T_world_cam;
   kf.px_by_track.reserve(track_ids.size());
   for (size_t i = 0; i < track_ids.size() && i < px.size(); ++i) kf.px_by_track.emplace(track_ids[i], px[i]);
+  pending_keyframes_.push_back(kf.id);
   keyframes_.push_back(std::move(kf));
   return keyframes_.back().id;
 }
@@ -36,6 +39,7 @@ uint64_t Map::addPoint(uint64_t track_id, const Eigen::Vector3d& p_world,
   point_by_track_[track_id] = point.id;
   const uint64_t id = point.id;
   points_.emplace(id, std::move(point));
+  pending_points_[id] = true;
   return id;
 }
 
@@ -45,12 +49,14 @@ void Map::addObservation(uint64_t point_id, uint64_t keyframe_id, const Eigen::V
   for (const MapObservation& obs : p->observations)
     if (obs.keyframe_id == keyframe_id) return;
   p->observations.push_back({keyframe_id, px});
+  markUpdated(point_id);
 }
 
 void Map::removePoint(uint64_t point_id) {
   auto it = points_.find(point_id);
   if (it == points_.end()) return;
   if (it->second.has_track) point_by_track_.erase(it->second.track_id);
+  markRemoved(point_id);
   points_.erase(it);
 }
 
@@ -102,6 +108,13 @@ int Map::dropKeyframesOutsideWindow(int window_keyframes) {
   if (static_cast<int>(keyframes_.size()) <= window_keyframes) return 0;
   const size_t num_drop = keyframes_.size() - static_cast<size_t>(window_keyframes);
   const uint64_t first_kept_id = keyframes_[num_drop].id;
+  // The points that leave with these keyframes are retired with the state their observations give.
+  for (const auto& entry : points_) {
+    const MapPoint& p = entry.second;
+    if (!p.has_track && std::all_of(p.observations.begin(), p.observations.end(),
+                                    [&](const MapObservation& o) { return o.keyframe_id < first_kept_id; }))
+      markRetired(p);
+  }
   keyframes_.erase(keyframes_.begin(), keyframes_.begin() + static_cast<std::ptrdiff_t>(num_drop));
 
   int removed = 0;
@@ -132,6 +145,10 @@ int Map::cull(const MapConfig& config) {
     const bool unsupported =
         !p.has_track && static_cast<int>(p.observations.size()) < config.min_observations;
     if (rarely_found || unsupported) {
+      if (rarely_found)
+        markRemoved(p.id);
+      else
+        markRetired(p);
       if (p.has_track) point_by_track_.erase(p.track_id);
       it = points_.erase(it);
       ++removed;
@@ -181,7 +198,10 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
     if (Keyframe* kf = keyframe(k.id)) kf->T_world_cam = k.T_cam_world.inverse();
   }
   for (const BaPoint& bp : problem.points) {
-    if (MapPoint* p = point(bp.id)) p->p_world = bp.p_world;
+    if (MapPoint* p = point(bp.id)) {
+      p->p_world = bp.p_world;
+      markUpdated(bp.id);
+    }
   }
   for (const BaInertialState& st : problem.inertial.states) {
     if (Keyframe* kf = keyframe(st.keyframe_id)) {
@@ -220,7 +240,10 @@ void Map::transformAbout(const Eigen::Vector3d& centre, const Eigen::Matrix3d& R
     kf.T_world_cam.linear() = R * kf.T_world_cam.linear();
     kf.v_world_mps = R * kf.v_world_mps;
   }
-  for (auto& entry : points_) entry.second.p_world = centre + s * R * (entry.second.p_world - centre);
+  for (auto& entry : points_) {
+    entry.second.p_world = centre + s * R * (entry.second.p_world - centre);
+    markUpdated(entry.first);
+  }
 }
 
 void Map::applyCovariances(const std::vector<BaInertialState>& states) {
@@ -245,7 +268,75 @@ void Map::scaleAbout(const Eigen::Vector3d& centre, double s) {
     kf.T_world_cam.translation() = centre + s * (kf.T_world_cam.translation() - centre);
     kf.v_world_mps *= s;
   }
-  for (auto& entry : points_) entry.second.p_world = centre + s * (entry.second.p_world - centre);
+  for (auto& entry : points_) {
+    entry.second.p_world = centre + s * (entry.second.p_world - centre);
+    markUpdated(entry.first);
+  }
+}
+
+MapPointState Map::stateOf(const MapPoint& p) const {
+  MapPointState state;
+  state.id = p.id;
+  state.p_world = p.p_world;
+  state.num_observations = static_cast<int>(p.observations.size());
+  // Information of the point from its observations (Gauss-Newton, poses exact): each one constrains the two
+  // directions across its ray by the normalised-image Jacobian.
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  const double weight = 1.0 / (observation_sigma_rad_ * observation_sigma_rad_);
+  for (const MapObservation& o : p.observations) {
+    const Keyframe* kf = keyframe(o.keyframe_id);
+    if (kf == nullptr) continue;
+    const Eigen::Matrix3d R_cam_world = kf->T_world_cam.linear().transpose();
+    const Eigen::Vector3d p_cam = R_cam_world * (p.p_world - kf->T_world_cam.translation());
+    if (!(p_cam.z() > 0.0)) continue;
+    Eigen::Matrix<double, 2, 3> J;
+    J << 1.0, 0.0, -p_cam.x() / p_cam.z(), 0.0, 1.0, -p_cam.y() / p_cam.z();
+    J = (J / p_cam.z()) * R_cam_world;
+    information += weight * J.transpose() * J;
+  }
+  constexpr double kMaxVariance = 1e12;
+  information += (1.0 / kMaxVariance) * Eigen::Matrix3d::Identity();
+  state.covariance_world = information.ldlt().solve(Eigen::Matrix3d::Identity());
+  return state;
+}
+
+void Map::markUpdated(uint64_t point_id) { pending_points_.emplace(point_id, false); }
+
+void Map::markRemoved(uint64_t point_id) {
+  auto it = pending_points_.find(point_id);
+  const bool added_this_frame = it != pending_points_.end() && it->second;
+  if (it != pending_points_.end()) pending_points_.erase(it);
+  if (!added_this_frame) pending_removed_.push_back(point_id);
+}
+
+void Map::markRetired(const MapPoint& p) {
+  pending_points_.erase(p.id);
+  pending_retired_.push_back(stateOf(p));
+}
+
+MapEvents Map::takeEvents() {
+  MapEvents events;
+  events.map_restarted = pending_restart_;
+  for (uint64_t id : pending_keyframes_)
+    if (const Keyframe* kf = keyframe(id))
+      events.keyframes_added.push_back({kf->id, kf->timestamp_s, kf->T_world_cam});
+  for (const auto& entry : pending_points_) {
+    const auto it = points_.find(entry.first);
+    if (it == points_.end()) continue;
+    (entry.second ? events.points_added : events.points_updated).push_back(stateOf(it->second));
+  }
+  // Ascending ids, so that the record does not depend on the hash map's order.
+  auto byId = [](const MapPointState& a, const MapPointState& b) { return a.id < b.id; };
+  std::sort(events.points_added.begin(), events.points_added.end(), byId);
+  std::sort(events.points_updated.begin(), events.points_updated.end(), byId);
+  events.points_retired = std::move(pending_retired_);
+  events.points_removed = std::move(pending_removed_);
+  pending_points_.clear();
+  pending_retired_.clear();
+  pending_removed_.clear();
+  pending_keyframes_.clear();
+  pending_restart_ = false;
+  return events;
 }
 
 }  // namespace planetary_vo

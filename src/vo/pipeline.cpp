@@ -48,6 +48,9 @@ constexpr double kMaxInertialBridgeS = 30.0;
 // The IMU baseline of a new map is used for its scale when an accelerometer bias of the data sheet's
 // turn-on sigma moves it by less than this fraction.
 constexpr double kMaxInertialScaleError = 0.01;
+// The pixel noise of one observation for the points' covariance in the map events (the unit the
+// reprojection residual of the bundle adjustment assumes).
+constexpr double kPointObservationSigmaPx = 1.0;
 
 /// The covariance of [position, attitude, velocity] (world; attitude: truth = Exp(theta) estimate) of state
 /// `a` moved on to state `b` by the IMU: the linearised propagation (the attitude error rotates the
@@ -104,6 +107,7 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
   K_ = camera_.K();
+  map_.setObservationSigma(kPointObservationSigmaPx / camera_.fx());
   if (config_.bundle_adjustment.enabled && config_.bundle_adjustment.asynchronous)
     async_ba_ = std::make_unique<AsyncBundleAdjuster>(config_.bundle_adjustment);
 }
@@ -143,6 +147,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
   if (!camera.isValid(&why)) throw std::invalid_argument("Pipeline::setCamera: invalid camera: " + why);
   camera_ = camera;
   K_ = camera_.K();
+  map_.setObservationSigma(kPointObservationSigmaPx / camera_.fx());
   tracker_.reset();
   // Pixels of the old intrinsics cannot be matched to the new ones: continue from the current pose as after a
   // loss, so the trajectory does not jump.
@@ -305,6 +310,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
     last_nav_state_.reset();
   result.num_map_points = static_cast<int>(map_.numPoints());
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
+  result.map_events = map_.takeEvents();
   result.times.total_ms = msSince(start);
   return result;
 }

@@ -11,6 +11,7 @@
 
 #include "planetary_vo/fusion/nav_state.h"
 #include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/vo/map_events.h"
 
 namespace planetary_vo {
 
@@ -99,6 +100,8 @@ struct FrameResult {
   /// docs/fusion/README.md for how it is obtained and what it does not contain.
   bool has_covariance = false;
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
+  /// What changed in the map during this frame (map_events.h): the feed of the terrain map.
+  MapEvents map_events;
   StageTimesMs times;
   /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.
   std::string message;

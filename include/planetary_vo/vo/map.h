@@ -23,6 +23,7 @@
 #include "planetary_vo/vo/bundle_adjuster.h"
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/frame_result.h"
+#include "planetary_vo/vo/map_events.h"
 
 namespace planetary_vo {
 
@@ -67,9 +68,20 @@ struct MapPoint {
 
 /// The windowed map. Not thread-safe: owned and used by the tracking thread; bundle adjustment works on a
 /// copy (makeBaProblem / applyBaResult).
+///
+/// Every change is also recorded as a map event (map_events.h) until takeEvents(): points triangulated
+/// (addPoint), refined or re-observed (applyBaResult, addObservation, scaleAbout, transformAbout), retired
+/// with their last state (they left the window: dropKeyframesOutsideWindow, cull of unsupported points,
+/// clear) or rejected (BA outliers, cull of points PnP keeps rejecting, removePoint).
 class Map {
  public:
+  /// Retires every point (map event) and empties the map; ids keep increasing.
   void clear();
+  /// What changed since the last call (map_events.h); the record is emptied.
+  MapEvents takeEvents();
+  /// 1-sigma of one observation as an angle (rad), for the points' covariance in the map events: the
+  /// pixel noise over the focal length. Default 1e-3.
+  void setObservationSigma(double sigma_rad) { observation_sigma_rad_ = sigma_rad; }
 
   /// Appends a keyframe (newest) holding the given ideal pixels of the live tracks; returns its id.
   uint64_t addKeyframe(double timestamp_s, const Pose& T_world_cam, const std::vector<uint64_t>& track_ids,
@@ -98,13 +110,14 @@ class Map {
   /// Drops the oldest keyframes beyond `window_keyframes` and the points nothing holds any more. Returns the
   /// number of points removed.
   int dropKeyframesOutsideWindow(int window_keyframes);
-  /// Removes points that PnP keeps rejecting (found / visible < cull_min_found_ratio after 5 visible frames)
-  /// and detached points with fewer than min_observations keyframe observations. Returns how many.
+  /// Removes points that PnP keeps rejecting (found / visible < cull_min_found_ratio after 5 visible frames;
+  /// rejected) and detached points with fewer than min_observations keyframe observations (retired: their
+  /// keyframes left). Returns how many.
   int cull(const MapConfig& config);
 
   /// Scales the map about `centre` (world): every keyframe position and point p becomes centre + s (p -
-  /// centre), velocities s v; attitudes are unchanged. A change of the map's unit, e.g. to metres once the altimeter fixed
-  /// it.
+  /// centre), velocities s v; attitudes are unchanged. A change of the map's unit, e.g. to metres once the
+  /// altimeter fixed it.
   void scaleAbout(const Eigen::Vector3d& centre, double s);
   /// Rotates and scales the map about `centre`: p -> centre + R s (p - centre) for keyframe positions and
   /// points, attitudes R_world_cam -> R R_world_cam, velocities v -> R v (metric already). E.g. the map
@@ -116,8 +129,9 @@ class Map {
   /// window that observe the points enter as fixed too.
   BaProblem makeBaProblem(int window_keyframes, int num_fixed_oldest, double fx, double fy, double cx,
                           double cy) const;
-  /// Writes optimised poses, points and inertial states back (ids that no longer exist are skipped) and removes the outlier
-  /// observations; points left with fewer than 2 observations are removed. Returns the points removed.
+  /// Writes optimised poses, points and inertial states back (ids that no longer exist are skipped) and
+  /// removes the outlier observations; points left with fewer than 2 observations are removed. Returns the
+  /// points removed.
   int applyBaResult(const BaProblem& problem, const std::vector<BaObservation>& outliers);
 
   /// Stores the covariances of the states that have one, on keyframes without one yet (keyframes that no
@@ -137,6 +151,18 @@ class Map {
   std::unordered_map<uint64_t, uint64_t> point_by_track_;
   uint64_t next_keyframe_id_ = 0;
   uint64_t next_point_id_ = 0;
+
+  // Map events since the last takeEvents().
+  MapPointState stateOf(const MapPoint& p) const;
+  void markUpdated(uint64_t point_id);
+  void markRemoved(uint64_t point_id);
+  void markRetired(const MapPoint& p);
+  double observation_sigma_rad_ = 1e-3;
+  std::unordered_map<uint64_t, bool> pending_points_;  // id -> added this frame (else updated)
+  std::vector<MapPointState> pending_retired_;
+  std::vector<uint64_t> pending_removed_;
+  std::vector<uint64_t> pending_keyframes_;
+  bool pending_restart_ = false;
 };
 
 }  // namespace planetary_vo

@@ -2,6 +2,7 @@
 /// memory), culling, and the bundle-adjustment copy and write-back.
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -125,6 +126,83 @@ TEST(Map, BundleAdjustmentCopyAndWriteBack) {
   ASSERT_EQ(views.size(), 1u);
   EXPECT_EQ(views[0].id, p2);
   EXPECT_EQ(views[0].num_observations, 1);
+}
+
+// Every change is recorded as a map event: added, updated, retired with its last state (left the window),
+// removed (rejected), each point at most once per frame; added and rejected in the same frame is not
+// reported.
+TEST(Map, EventsRecordEveryChangeOncePerFrame) {
+  Map map;
+  map.setObservationSigma(1e-3);
+  const uint64_t kf0 = addKf(&map, 0.0, {1, 2, 3, 4});
+  const uint64_t kf1 = addKf(&map, 1.0, {1, 2, 3, 4});
+  // Cameras at x = 0 and 1 looking along +z (identity attitude): a point 10 m ahead, 1 m baseline.
+  const uint64_t a = map.addPoint(1, {0.5, 0, 10}, {{kf0, {1, 1}}, {kf1, {2, 2}}});
+  const uint64_t b = map.addPoint(2, {0.5, 1, 10}, {{kf0, {1, 1}}});
+  const uint64_t gone = map.addPoint(3, {0.5, 2, 10}, {{kf0, {1, 1}}, {kf1, {2, 2}}});
+  map.removePoint(gone);
+  MapEvents e = map.takeEvents();
+  EXPECT_EQ(e.keyframes_added.size(), 2u);
+  ASSERT_EQ(e.points_added.size(), 2u);
+  EXPECT_EQ(e.points_added[0].id, a);
+  EXPECT_EQ(e.points_added[1].id, b);
+  EXPECT_TRUE(e.points_updated.empty());
+  EXPECT_TRUE(e.points_removed.empty());  // added and removed in the same frame: never announced
+  // Two rays 1 m apart at 10 m: across the ray 1e-3 * 10 / sqrt(2) m, along it about 10 / 1 times more.
+  const Eigen::Matrix3d& cov = e.points_added[0].covariance_world;
+  EXPECT_NEAR(std::sqrt(cov(0, 0)), 0.01 / std::sqrt(2.0) * std::sqrt(1.0 + 0.05 * 0.05 * 4), 2e-3);
+  EXPECT_GT(std::sqrt(cov(2, 2)), 5.0 * std::sqrt(cov(1, 1)));
+  EXPECT_GT(e.points_added[1].covariance_world(2, 2), 1e6);  // one ray: no depth
+  EXPECT_TRUE(map.takeEvents().empty());
+
+  // Bundle adjustment moves a; an outlier observation leaves `a` with one: rejected.
+  BaProblem problem = map.makeBaProblem(10, 1, 500, 500, 320, 240);
+  ASSERT_EQ(problem.points.size(), 1u);
+  problem.points[0].p_world.x() = 0.6;
+  map.applyBaResult(problem, {});
+  e = map.takeEvents();
+  ASSERT_EQ(e.points_updated.size(), 1u);
+  EXPECT_EQ(e.points_updated[0].p_world.x(), 0.6);
+  map.applyBaResult(problem, {{kf0, a, {1, 1}}});
+  e = map.takeEvents();
+  EXPECT_TRUE(e.points_updated.empty());
+  ASSERT_EQ(e.points_removed.size(), 1u);
+  EXPECT_EQ(e.points_removed[0], a);
+
+  // b leaves with its keyframe (track dead): retired with its last position; cull splits rejected points
+  // (PnP keeps rejecting them) from unsupported ones (retired).
+  map.detachTrack(2);
+  addKf(&map, 2.0, {4});
+  addKf(&map, 3.0, {4});
+  map.dropKeyframesOutsideWindow(2);
+  e = map.takeEvents();
+  ASSERT_EQ(e.points_retired.size(), 1u);
+  EXPECT_EQ(e.points_retired[0].id, b);
+  EXPECT_EQ(e.points_retired[0].p_world, Eigen::Vector3d(0.5, 1, 10));
+  const uint64_t kf2 = map.keyframes().front().id, kf3 = map.keyframes().back().id;
+  const uint64_t bad = map.addPoint(4, {0, 0, 5}, {{kf2, {1, 1}}, {kf3, {1, 1}}});
+  const uint64_t lonely = map.addPoint(5, {0, 0, 6}, {{kf3, {1, 1}}});
+  map.takeEvents();
+  map.point(bad)->times_visible = 10;
+  map.detachTrack(5);
+  map.scaleAbout(Eigen::Vector3d::Zero(), 2.0);
+  map.cull(MapConfig());
+  e = map.takeEvents();
+  EXPECT_TRUE(e.points_updated.empty());  // both left after the scaling: reported as what they became
+  ASSERT_EQ(e.points_removed.size(), 1u);
+  EXPECT_EQ(e.points_removed[0], bad);
+  ASSERT_EQ(e.points_retired.size(), 1u);
+  EXPECT_EQ(e.points_retired[0].id, lonely);
+  EXPECT_EQ(e.points_retired[0].p_world, Eigen::Vector3d(0, 0, 12));
+
+  // A new map: every point retired.
+  const uint64_t kept = map.addPoint(4, {1, 1, 7}, {{kf2, {1, 1}}, {kf3, {1, 1}}});
+  map.takeEvents();
+  map.clear();
+  e = map.takeEvents();
+  EXPECT_TRUE(e.map_restarted);
+  ASSERT_EQ(e.points_retired.size(), 1u);
+  EXPECT_EQ(e.points_retired[0].id, kept);
 }
 
 }  // namespace

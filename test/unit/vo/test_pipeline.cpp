@@ -9,6 +9,7 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -84,6 +85,7 @@ cv::Mat renderView(const cv::Mat& texture, const PinholeCamera& camera, const Po
 struct SequenceRun {
   std::vector<FrameResult> results;
   Trajectory ground_truth;
+  std::vector<std::vector<MapPointView>> map_points;  ///< the pipeline's map after each frame
 };
 
 /// What a laser altimeter along the camera's optical axis reads over the plane z = 0 (exact range plus
@@ -152,6 +154,8 @@ SequenceRun runSequence(const VoConfig& config, int num_frames, int blackout_beg
     const cv::Mat image =
         black ? cv::Mat::zeros(kHeight, kWidth, CV_8U) : renderView(texture, camera, T_world_cam);
     run.results.push_back(pipeline.process(t, image));
+    run.map_points.emplace_back();
+    pipeline.mapPoints(&run.map_points.back());
   }
   return run;
 }
@@ -200,6 +204,64 @@ TEST(Pipeline, MapModeTracksAPlanarDescent) {
       EXPECT_LT(rpe.rotation_deg.rmse, 0.5);
     }
   }
+}
+
+// The map events of every frame (FrameResult::map_events) are a complete feed of the map: a consumer that
+// applies them holds exactly the pipeline's points (ids and positions) after every frame, also across a
+// blackout and the new map of the recovery; and the points retired from the window are still valid
+// terrain: on the plane z = 0 within their own uncertainty.
+TEST(Pipeline, MapEventsReplayTheMapAndRetiredPointsStayOnTheTerrain) {
+  VoConfig config;
+  config.altimeter.enabled = true;  // metric, in the handed-over world where the ground is z = 0
+  const SequenceRun run = runSequence(config, 60, 30, 34, true);
+  std::map<uint64_t, MapPointState> live, retired;
+  int restarts = 0, added = 0, updated = 0, removed = 0;
+  for (size_t i = 0; i < run.results.size(); ++i) {
+    const MapEvents& e = run.results[i].map_events;
+    restarts += e.map_restarted ? 1 : 0;
+    for (const MapPointState& p : e.points_added) {
+      EXPECT_EQ(live.count(p.id), 0u) << "frame " << i << ": point " << p.id << " added twice";
+      live[p.id] = p;
+      ++added;
+    }
+    for (const MapPointState& p : e.points_updated) {
+      EXPECT_EQ(live.count(p.id), 1u) << "frame " << i << ": update of unknown point " << p.id;
+      live[p.id] = p;
+      ++updated;
+    }
+    for (const MapPointState& p : e.points_retired) {
+      live.erase(p.id);
+      retired[p.id] = p;
+    }
+    for (uint64_t id : e.points_removed) {
+      EXPECT_EQ(live.count(id), 1u) << "frame " << i << ": removal of unknown point " << id;
+      live.erase(id);
+      ++removed;
+    }
+    const std::vector<MapPointView>& map = run.map_points[i];
+    ASSERT_EQ(live.size(), map.size()) << "frame " << i;
+    for (const MapPointView& v : map) {
+      const auto it = live.find(v.id);
+      ASSERT_NE(it, live.end()) << "frame " << i << ": point " << v.id << " never announced";
+      EXPECT_EQ(it->second.p_world, v.p_world) << "frame " << i << ": point " << v.id;
+    }
+  }
+  int on_terrain = 0;
+  double sum_abs_z = 0.0;
+  for (const auto& entry : retired) {
+    const MapPointState& p = entry.second;
+    const double sigma_z = std::sqrt(p.covariance_world(2, 2));
+    on_terrain += std::abs(p.p_world.z()) <= 3.0 * sigma_z + 0.5 ? 1 : 0;
+    sum_abs_z += std::abs(p.p_world.z());
+  }
+  std::cout << "map events: " << added << " added, " << updated << " updates, " << removed << " removed, "
+            << retired.size() << " retired (mean |z| " << sum_abs_z / std::max<size_t>(1, retired.size())
+            << " m, " << on_terrain << " within 3 sigma + 0.5 m of the ground), " << restarts
+            << " map starts\n";
+  EXPECT_GE(restarts, 2);  // the first map and the one after the blackout
+  EXPECT_GT(updated, added);
+  EXPECT_GT(retired.size(), 100u);
+  EXPECT_GE(on_terrain, static_cast<int>(0.95 * retired.size()));
 }
 
 TEST(Pipeline, InlineBundleAdjustmentAlsoTracks) {
