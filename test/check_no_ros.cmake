@@ -1,6 +1,6 @@
 # Fails (FATAL_ERROR) when any file of the ROS-free core library includes a ROS header.
 # Usage: cmake -DROOT=<package root> -P check_no_ros.cmake
-set(core_dirs geometry dataset eval sensors render vo)
+set(core_dirs geometry dataset eval sensors terrain render fusion vo)
 set(patterns "#include[ \t]*[<\"](ros|rosbag|nodelet|pluginlib|image_transport|cv_bridge|tf2|tf2_ros|sensor_msgs|geometry_msgs|nav_msgs|std_msgs|image_geometry|diagnostic_updater|dynamic_reconfigure)/")
 set(offenders)
 set(checked 0)

@@ -15,8 +15,11 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+
+#include "planetary_vo/render/terrain_truth.h"
 
 namespace planetary_vo::render {
 
@@ -90,6 +93,9 @@ std::string streamsParamHash(const SequenceOptions& o) {
      << sensors::yamlText(sensors::toYaml(o.sensors.imu)) << "|altimeter "
      << sensors::yamlText(sensors::toYaml(o.sensors.altimeter)) << "|camera "
      << sensors::yamlText(sensors::toYaml(o.sensors.camera)) << "|sensor_seed " << o.sensor_seed;
+  os.precision(17);
+  os << "|landing_area " << o.landing_area.half_extent_m << ' ' << o.landing_area.cell_size_m << ' '
+     << o.landing_area.footprint_diameter_m;
   return fnv1aHex(os.str());
 }
 
@@ -318,6 +324,11 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
   for (const char* f : {"groundtruth_state.txt", "groundtruth_altimeter.txt", "groundtruth_camera.yaml",
                         "groundtruth_sensors.yaml", "sensors.yaml"})
     fs::remove(o.output_dir + "/" + f, ec);
+  std::vector<fs::path> terrain_files;  // groundtruth_terrain.yaml and its layers
+  for (const auto& e : fs::directory_iterator(o.output_dir, ec))
+    if (e.path().filename().string().rfind(kGroundTruthTerrainName, 0) == 0)
+      terrain_files.push_back(e.path());
+  for (const fs::path& f : terrain_files) fs::remove(f, ec);
   if (!images_cached) {
     fs::remove_all(o.output_dir + "/images", ec);
     fs::remove_all(o.output_dir + "/depth", ec);
@@ -444,6 +455,9 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
       range_bias_m = r.bias_m;
     }
     truth_yaml << "altimeter:\n  range_bias_m: " << range_bias_m << "\n";
+    // The true terrain of the landing area, from the terrain the images were rendered from.
+    terrain::writeGridSet(o.output_dir, kGroundTruthTerrainName,
+                          groundTruthTerrain(*setup.terrain, o.landing_area));
 
     writer.setSequenceYaml(sequenceYaml(o, setup, result));
     writer.setTextFile("sensors.yaml", sensorsSpecYaml(o));

@@ -8,15 +8,16 @@
 ///    user knows them), sequence.yaml;
 ///  - ground truth, for the evaluator only: groundtruth.txt, groundtruth_state.txt (pose, velocity, true IMU
 ///    biases at the IMU rate), groundtruth_altimeter.txt (true range, altitude, incidence),
-///    groundtruth_camera.yaml (the real camera) and groundtruth_sensors.yaml (every error drawn for this
-///    run).
+///    groundtruth_camera.yaml (the real camera), groundtruth_sensors.yaml (every error drawn for this
+///    run) and groundtruth_terrain.yaml + groundtruth_terrain_{elevation_m,slope_deg,roughness_m}.tiff (the
+///    true terrain of the landing area, render/terrain_truth.h).
 ///
 /// Caching: render_stamp.txt carries two hashes. The image hash covers everything that changes the pixels
 /// (renderer version, sequence, DEM and its placement, size, rate, duration, terrain seed, Sun, camera sensor
 /// parameters and the sensor seed); for the ideal camera it is the hash of renderer 1.2, so its renders stay
-/// valid. The stream hash adds the IMU and altimeter parameters. A complete render with the same image hash
-/// keeps its images and only writes the streams again when the stream hash differs; nothing is done when both
-/// match.
+/// valid. The stream hash adds the IMU and altimeter parameters and the landing area of the terrain grids. A
+/// complete render with the same image hash keeps its images and only writes the streams again when the
+/// stream hash differs; nothing is done when both match.
 
 #include <cstdint>
 #include <functional>
@@ -27,6 +28,7 @@
 #include "planetary_vo/render/descent_trajectory.h"
 #include "planetary_vo/render/renderer.h"
 #include "planetary_vo/sensors/sensor_suite.h"
+#include "planetary_vo/terrain/landing_area.h"
 
 namespace planetary_vo::render {
 
@@ -35,7 +37,8 @@ namespace planetary_vo::render {
 /// kStreamsVersion.)
 constexpr const char* kRendererVersion = "lunar_render 1.2";
 /// Bump whenever the sensor streams or the dataset files change (IMU, altimeter, ground-truth files).
-constexpr const char* kStreamsVersion = "streams 1.3";
+/// 1.4: the ground-truth terrain grids (groundtruth_terrain*).
+constexpr const char* kStreamsVersion = "streams 1.4";
 
 struct SequenceOptions {
   std::string sequence = "approach_down";  ///< one of lunarSequences()
@@ -57,6 +60,8 @@ struct SequenceOptions {
   int placement_rank = 0;
   double imu_rate_hz = 200.0;
   double altimeter_rate_hz = 20.0;
+  /// Extent, cell and lander footprint of the ground-truth terrain grids (render/terrain_truth.h).
+  terrain::LandingAreaParams landing_area;
   bool save_depth = false;  ///< depth/NNNNNN.tiff (32-bit float z-depth in m)
   bool force = false;       ///< render even if a complete identical render exists
   int num_threads = 0;
@@ -70,9 +75,9 @@ struct SequenceResult {
   double seconds = 0.0;
   double frames_per_second = 0.0;
   std::string param_hash;      ///< the image hash
-  std::string streams_hash;    ///< the image hash + IMU and altimeter parameters
+  std::string streams_hash;    ///< the image hash + IMU, altimeter and landing-area parameters
   double render_cpu_s = 0.0;   ///< process CPU time spent on the images (all threads)
-  double streams_cpu_s = 0.0;  ///< process CPU time spent on IMU, altimeter and files
+  double streams_cpu_s = 0.0;  ///< process CPU time spent on IMU, altimeter, terrain grids and files
 };
 
 /// Progress callback: (frames done, total frames, seconds elapsed).
@@ -94,7 +99,7 @@ SequenceSetup prepareSequence(const SequenceOptions& options);
 /// Stable hex hash of all options that change the images (not output_dir, force, num_threads, verbose) +
 /// renderer version. For the ideal camera and placement 0 it is the hash of renderer 1.2.
 std::string sequenceParamHash(const SequenceOptions& options);
-/// sequenceParamHash + the IMU and altimeter parameters + kStreamsVersion.
+/// sequenceParamHash + the IMU and altimeter parameters + the landing area + kStreamsVersion.
 std::string streamsParamHash(const SequenceOptions& options);
 
 /// The exact altimeter geometry at time t: range along the boresight (ray cast), altitude above the terrain
