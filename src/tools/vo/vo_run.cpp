@@ -22,24 +22,27 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <glog/logging.h>
+#include <Eigen/Geometry>
 
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
+#include "planetary_vo/terrain/terrain_map.h"
 #include "planetary_vo/vo/config_yaml.h"
 #include "planetary_vo/vo/pipeline.h"
 
@@ -58,6 +61,7 @@ struct Options {
   bool initial_pose_only = false;
   std::string velocity_path;
   std::string covariance_path;
+  std::string terrain_dir;
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
 };
@@ -86,10 +90,16 @@ void usage(std::ostream& out) {
          "  --initial-pose-only  with --initial-state-from-groundtruth: hand over the pose but not the\n"
          "                    velocity (the camera + IMU mode then aligns vision and IMU itself)\n"
          "  --initial-error-m DX,DY,DZ / --initial-error-deg RX,RY,RZ  error of the handed-over state:\n"
-         "                    position offset (world, m) and rotation vector applied to the attitude (world,\n"
+         "                    position offset (world, m) and rotation vector applied to the attitude "
+         "(world,\n"
          "                    deg), as vo_eval --initial-error-m/-deg (Monte Carlo campaigns)\n"
-         "  --output-covariance FILE  t and the 6x6 covariance of [position (m), attitude (rad)], world frame,\n"
+         "  --output-covariance FILE  t and the 6x6 covariance of [position (m), attitude (rad)], world "
+         "frame,\n"
          "                    row-major, of every frame with one (camera + IMU mode; vo_eval --est-cov)\n"
+         "  --output-terrain DIR  the terrain model of the landing area built from the map events\n"
+         "                    (terrain/terrain_map.h) at the end of the run: DIR/terrain.yaml and its "
+         "layers\n"
+         "                    (terrain_eval --est DIR scores it)\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -127,13 +137,15 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!value(&options->frame_log_path)) return false;
     } else if (arg == "--initial-error-m" || arg == "--initial-error-deg") {
       if (!value(&text)) return false;
-      if (!parseTriple(text, arg == "--initial-error-m" ? &options->initial_error_m
-                                                        : &options->initial_error_deg)) {
+      if (!parseTriple(
+              text, arg == "--initial-error-m" ? &options->initial_error_m : &options->initial_error_deg)) {
         std::cerr << "vo_run: " << arg << " needs X,Y,Z, got '" << text << "'\n";
         return false;
       }
     } else if (arg == "--output-covariance") {
       if (!value(&options->covariance_path)) return false;
+    } else if (arg == "--output-terrain") {
+      if (!value(&options->terrain_dir)) return false;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-pose-only") {
@@ -202,10 +214,9 @@ int main(int argc, char** argv) {
       std::vector<GroundTruthState> states;
       if (std::ifstream(state_path).good()) states = readGroundTruthStates(state_path);
       // The state at the first image: the guidance handover (pose, velocity), nothing else.
-      const auto at_first =
-          std::find_if(states.begin(), states.end(), [&first](const GroundTruthState& s) {
-            return std::abs(s.timestamp_s - first.timestamp_s) < 1e-6;
-          });
+      const auto at_first = std::find_if(states.begin(), states.end(), [&first](const GroundTruthState& s) {
+        return std::abs(s.timestamp_s - first.timestamp_s) < 1e-6;
+      });
       if (at_first != states.end() && !options.initial_pose_only)
         pipeline.setInitialState(first.T_world_cam, at_first->velocity_world_mps);
       else
@@ -246,6 +257,11 @@ int main(int argc, char** argv) {
       frame_log
           << "# frame timestamp_s state tracked new inliers map_points keyframe model total_ms message\n";
     }
+    std::optional<terrain::TerrainMap> terrain_map;
+    if (!options.terrain_dir.empty()) {
+      std::filesystem::create_directories(options.terrain_dir);
+      terrain_map.emplace();
+    }
     Trajectory trajectory;
     std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
     std::array<int, 4> state_counts{};
@@ -262,6 +278,7 @@ int main(int argc, char** argv) {
         pipeline.addImu(imu[next_imu++]);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
       if (r.metric_scale && metric_from_frame < 0) metric_from_frame = static_cast<int>(r.frame_index);
+      if (terrain_map) terrain_map->apply(r.map_events, r.metric_scale);
       if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
       if (!r.processed) continue;
       ++processed;
@@ -303,6 +320,17 @@ int main(int argc, char** argv) {
     }
     if (progress) std::fprintf(stderr, "\n");
     writeTumTrajectory(options.output_path, trajectory);
+    if (terrain_map) {
+      const terrain::TerrainProducts products = terrain_map->products();
+      terrain::writeGridSet(options.terrain_dir, "terrain", products.grids);
+      if (!options.quiet)
+        std::printf(
+            "terrain: %zu points (%zu used in the landing area), %d of %d cells with an elevation%s -> "
+            "%s/terrain.yaml\n",
+            products.num_points, products.num_used, products.cells_known,
+            products.grids.geometry.rows * products.grids.geometry.cols,
+            products.metric ? "" : " (NOT metric: map units)", options.terrain_dir.c_str());
+    }
 
     if (!options.quiet) {
       struct rusage usage_info {};

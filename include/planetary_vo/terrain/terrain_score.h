@@ -1,0 +1,37 @@
+#pragma once
+/// @file terrain_score.h
+/// Scores an estimated terrain map of the landing area against the true one the renderer wrote
+/// (render/terrain_truth.h): on the cells known in both, the elevation error (RMSE and mean, metres, world
+/// z), the slope and roughness errors, and the hazard map's precision and recall (terrain/hazard.h: a
+/// hazard found where there is one / every true hazard found), plus how much of the area the estimate
+/// covers at all. Both grid sets must share one geometry (the landing area of terrain/landing_area.h).
+
+#include <string>
+
+#include "planetary_vo/terrain/grid.h"
+#include "planetary_vo/terrain/hazard.h"
+
+namespace planetary_vo::terrain {
+
+struct TerrainScore {
+  int cells = 0;                                            ///< cells of the area
+  int cells_elevation = 0;                                  ///< cells with a true and an estimated elevation
+  double elevation_coverage = 0;                            ///< cells_elevation / cells with a true elevation
+  double elevation_rmse_m = 0, elevation_mean_error_m = 0;  ///< estimate - truth
+  int cells_surface = 0;        ///< cells with true and estimated slope and roughness
+  double surface_coverage = 0;  ///< cells_surface / cells with a true slope and roughness
+  double slope_rmse_deg = 0, roughness_rmse_m = 0;
+  /// Hazard cells over cells_surface: true positives (hazard in both), false positives (estimated only),
+  /// false negatives (true only), true negatives.
+  int hazard_tp = 0, hazard_fp = 0, hazard_fn = 0, hazard_tn = 0;
+  double hazard_precision = 0, hazard_recall = 0;  ///< NaN when undefined (no hazard estimated / true)
+};
+
+/// Throws std::invalid_argument when the geometries differ or a layer (elevation_m, slope_deg,
+/// roughness_m) is missing.
+TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const HazardThresholds& thresholds);
+
+/// The score as one JSON object (NaN as null).
+std::string toJson(const TerrainScore& score);
+
+}  // namespace planetary_vo::terrain

@@ -1,0 +1,27 @@
+#include "planetary_vo/terrain/hazard.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace planetary_vo::terrain {
+
+cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const HazardThresholds& thresholds) {
+  if (slope_deg.type() != CV_32FC1 || roughness_m.type() != CV_32FC1 ||
+      slope_deg.size() != roughness_m.size())
+    throw std::invalid_argument("hazardMask: slope and roughness must be CV_32F layers of one size");
+  cv::Mat mask(slope_deg.size(), CV_8U);
+  for (int row = 0; row < mask.rows; ++row) {
+    const float* s = slope_deg.ptr<float>(row);
+    const float* r = roughness_m.ptr<float>(row);
+    uint8_t* m = mask.ptr<uint8_t>(row);
+    for (int col = 0; col < mask.cols; ++col) {
+      if (!std::isfinite(s[col]) || !std::isfinite(r[col]))
+        m[col] = kUnknown;
+      else
+        m[col] = (s[col] > thresholds.max_slope_deg || r[col] > thresholds.max_roughness_m) ? kHazard : kSafe;
+    }
+  }
+  return mask;
+}
+
+}  // namespace planetary_vo::terrain

@@ -1,0 +1,107 @@
+#include "planetary_vo/terrain/terrain_score.h"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace planetary_vo::terrain {
+namespace {
+
+const cv::Mat& layer(const GridSet& grids, const char* name, const char* which) {
+  const auto it = grids.layers.find(name);
+  if (it == grids.layers.end() || it->second.type() != CV_32FC1 || it->second.rows != grids.geometry.rows ||
+      it->second.cols != grids.geometry.cols)
+    throw std::invalid_argument(std::string("scoreTerrain: the ") + which + " has no layer " + name +
+                                " of its grid's size");
+  return it->second;
+}
+
+double ratio(double a, double b) { return b > 0 ? a / b : std::numeric_limits<double>::quiet_NaN(); }
+
+}  // namespace
+
+TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const HazardThresholds& thresholds) {
+  if (truth.geometry != estimate.geometry)
+    throw std::invalid_argument(
+        "scoreTerrain: the estimate's grid is not the truth's (origin, cell size, size)");
+  const cv::Mat& z_true = layer(truth, "elevation_m", "truth");
+  const cv::Mat& z_est = layer(estimate, "elevation_m", "estimate");
+  const cv::Mat& s_true = layer(truth, "slope_deg", "truth");
+  const cv::Mat& s_est = layer(estimate, "slope_deg", "estimate");
+  const cv::Mat& r_true = layer(truth, "roughness_m", "truth");
+  const cv::Mat& r_est = layer(estimate, "roughness_m", "estimate");
+  const cv::Mat hazard_true = hazardMask(s_true, r_true, thresholds);
+  const cv::Mat hazard_est = hazardMask(s_est, r_est, thresholds);
+  TerrainScore score;
+  score.cells = truth.geometry.rows * truth.geometry.cols;
+  int true_elevation = 0, true_surface = 0;
+  double sz = 0, szz = 0, sss = 0, srr = 0;
+  for (int row = 0; row < truth.geometry.rows; ++row) {
+    for (int col = 0; col < truth.geometry.cols; ++col) {
+      const float zt = z_true.at<float>(row, col), ze = z_est.at<float>(row, col);
+      if (std::isfinite(zt)) {
+        ++true_elevation;
+        if (std::isfinite(ze)) {
+          ++score.cells_elevation;
+          sz += ze - zt;
+          szz += (ze - zt) * (ze - zt);
+        }
+      }
+      const uint8_t ht = hazard_true.at<uint8_t>(row, col), he = hazard_est.at<uint8_t>(row, col);
+      if (ht == kUnknown) continue;
+      ++true_surface;
+      if (he == kUnknown) continue;
+      ++score.cells_surface;
+      sss += std::pow(s_est.at<float>(row, col) - s_true.at<float>(row, col), 2);
+      srr += std::pow(r_est.at<float>(row, col) - r_true.at<float>(row, col), 2);
+      if (ht == kHazard && he == kHazard) ++score.hazard_tp;
+      if (ht == kSafe && he == kHazard) ++score.hazard_fp;
+      if (ht == kHazard && he == kSafe) ++score.hazard_fn;
+      if (ht == kSafe && he == kSafe) ++score.hazard_tn;
+    }
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  score.elevation_coverage = ratio(score.cells_elevation, true_elevation);
+  score.elevation_rmse_m = score.cells_elevation > 0 ? std::sqrt(szz / score.cells_elevation) : nan;
+  score.elevation_mean_error_m = score.cells_elevation > 0 ? sz / score.cells_elevation : nan;
+  score.surface_coverage = ratio(score.cells_surface, true_surface);
+  score.slope_rmse_deg = score.cells_surface > 0 ? std::sqrt(sss / score.cells_surface) : nan;
+  score.roughness_rmse_m = score.cells_surface > 0 ? std::sqrt(srr / score.cells_surface) : nan;
+  score.hazard_precision = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fp);
+  score.hazard_recall = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fn);
+  return score;
+}
+
+std::string toJson(const TerrainScore& s) {
+  std::ostringstream out;
+  out.precision(10);
+  auto num = [&](const char* key, double v, bool last = false) {
+    out << "  \"" << key << "\": ";
+    if (std::isfinite(v))
+      out << v;
+    else
+      out << "null";
+    out << (last ? "\n" : ",\n");
+  };
+  out << "{\n";
+  num("cells", s.cells);
+  num("cells_elevation", s.cells_elevation);
+  num("elevation_coverage", s.elevation_coverage);
+  num("elevation_rmse_m", s.elevation_rmse_m);
+  num("elevation_mean_error_m", s.elevation_mean_error_m);
+  num("cells_surface", s.cells_surface);
+  num("surface_coverage", s.surface_coverage);
+  num("slope_rmse_deg", s.slope_rmse_deg);
+  num("roughness_rmse_m", s.roughness_rmse_m);
+  num("hazard_tp", s.hazard_tp);
+  num("hazard_fp", s.hazard_fp);
+  num("hazard_fn", s.hazard_fn);
+  num("hazard_tn", s.hazard_tn);
+  num("hazard_precision", s.hazard_precision);
+  num("hazard_recall", s.hazard_recall, true);
+  out << "}\n";
+  return out.str();
+}
+
+}  // namespace planetary_vo::terrain

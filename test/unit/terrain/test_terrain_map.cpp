@@ -1,0 +1,161 @@
+// The terrain model from map events: points kept across events (retired ones too), rejected ones dropped;
+// the elevation, slope and roughness it rasterises against a known surface; holes reported, not filled.
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "planetary_vo/terrain/terrain_map.h"
+
+using namespace planetary_vo;
+using namespace planetary_vo::terrain;
+
+namespace {
+
+constexpr double kSlopeDeg = 8.0;
+const double kGradient = std::tan(kSlopeDeg * M_PI / 180.0);
+
+/// A plane rising along +x at 8 deg, with a 1 m high, 2 m wide block at (20, 20) and nothing measured in
+/// the square x, y in [-40, -20] (a hole).
+double surface(double x, double y) {
+  const bool block = std::abs(x - 20.0) <= 1.0 && std::abs(y - 20.0) <= 1.0;
+  return kGradient * x + (block ? 1.0 : 0.0);
+}
+bool inHole(double x, double y) { return x >= -40.0 && x <= -20.0 && y >= -40.0 && y <= -20.0; }
+
+TerrainMapConfig smallArea() {
+  TerrainMapConfig config;
+  config.area.half_extent_m = 48.0;
+  config.area.cell_size_m = 1.0;
+  config.area.footprint_diameter_m = 4.0;
+  config.support_radius_m = 1.0;
+  return config;
+}
+
+/// Points every `spacing_m` (jittered) with vertical noise `noise_m` and a matching covariance.
+MapEvents pointsOnSurface(double spacing_m, double noise_m, uint64_t first_id, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, noise_m);
+  std::uniform_real_distribution<double> jitter(-0.3 * spacing_m, 0.3 * spacing_m);
+  MapEvents events;
+  uint64_t id = first_id;
+  for (double y = -56.0; y <= 56.0; y += spacing_m) {
+    for (double x = -56.0; x <= 56.0; x += spacing_m) {
+      const double px = x + jitter(rng), py = y + jitter(rng);
+      if (inHole(px, py)) continue;
+      MapPointState p;
+      p.id = id++;
+      p.p_world = Eigen::Vector3d(px, py, surface(px, py) + noise(rng));
+      p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, noise_m * noise_m).asDiagonal();
+      p.num_observations = 3;
+      events.points_added.push_back(p);
+    }
+  }
+  return events;
+}
+
+float at(const TerrainProducts& products, const std::string& layer, double x, double y) {
+  int col = 0, row = 0;
+  EXPECT_TRUE(products.grids.geometry.cellAt(x, y, &col, &row));
+  return products.grids.layers.at(layer).at<float>(row, col);
+}
+
+}  // namespace
+
+TEST(TerrainMap, ElevationSlopeAndRoughnessOfAKnownSurface) {
+  TerrainMap map(smallArea());
+  map.apply(pointsOnSurface(0.5, 0.05, 1, 7), true);
+  const TerrainProducts products = map.products();
+  EXPECT_TRUE(products.metric);
+  EXPECT_GT(products.num_used, 30000u);
+  const GridGeometry& g = products.grids.geometry;
+  const cv::Mat& elevation = products.grids.layers.at("elevation_m");
+  const cv::Mat& slope = products.grids.layers.at("slope_deg");
+  const cv::Mat& roughness = products.grids.layers.at("roughness_m");
+  const cv::Mat& sigma = products.grids.layers.at("elevation_sigma_m");
+  double sq = 0.0, slope_sq = 0.0, z_sq = 0.0;
+  int n = 0, n_slope = 0, normalised = 0;
+  for (int row = 0; row < g.rows; ++row) {
+    for (int col = 0; col < g.cols; ++col) {
+      const double x = g.x_m(col), y = g.y_m(row);
+      // Away from the block and the hole (footprint + support radius) and the edge.
+      if (std::hypot(std::max(0.0, std::abs(x - 20.0) - 1.0), std::max(0.0, std::abs(y - 20.0) - 1.0)) < 5.0)
+        continue;
+      if (x > -45.0 && x < -15.0 && y > -45.0 && y < -15.0) continue;
+      const float z = elevation.at<float>(row, col);
+      ASSERT_TRUE(std::isfinite(z)) << x << " " << y;
+      const double e = z - surface(x, y);
+      sq += e * e;
+      z_sq += (e / sigma.at<float>(row, col)) * (e / sigma.at<float>(row, col));
+      normalised += 1;
+      ++n;
+      if (std::isfinite(slope.at<float>(row, col))) {
+        slope_sq += std::pow(slope.at<float>(row, col) - kSlopeDeg, 2);
+        ++n_slope;
+        EXPECT_LT(roughness.at<float>(row, col), 0.3) << x << " " << y;
+      }
+    }
+  }
+  const double rmse = std::sqrt(sq / n), slope_rmse = std::sqrt(slope_sq / n_slope);
+  std::printf("  elevation RMSE %.3f m (points 0.05 m), normalised %.2f; slope RMSE %.2f deg over %d cells\n",
+              rmse, std::sqrt(z_sq / normalised), slope_rmse, n_slope);
+  EXPECT_LT(rmse, 0.03);
+  EXPECT_LT(slope_rmse, 0.5);
+  EXPECT_GT(n_slope, 5000);
+  // The block is a roughness hazard where the footprint covers part of it.
+  EXPECT_GT(at(products, "roughness_m", 20.0, 20.0), 0.3f);
+  EXPECT_GT(at(products, "roughness_m", 22.0, 20.0), 0.3f);
+  // The hole stays unknown, not interpolated.
+  EXPECT_TRUE(std::isnan(at(products, "elevation_m", -30.0, -30.0)));
+  EXPECT_TRUE(std::isnan(at(products, "slope_deg", -30.0, -30.0)));
+}
+
+TEST(TerrainMap, KeepsRetiredPointsDropsRejectedOnesAndUnusablePoints) {
+  TerrainMap map(smallArea());
+  MapEvents first = pointsOnSurface(2.0, 0.05, 1, 3);
+  const size_t n = first.points_added.size();
+  map.apply(first, true);
+  EXPECT_EQ(map.numPoints(), n);
+  // Half leave the VO's window (retired: kept), a tenth are rejected (dropped), one moves.
+  MapEvents second;
+  for (size_t i = 0; i < n; i += 2) second.points_retired.push_back(first.points_added[i]);
+  for (size_t i = 1; i < n; i += 10) second.points_removed.push_back(first.points_added[i].id);
+  MapPointState moved = first.points_added[3];
+  moved.p_world.z() += 100.0;
+  second.points_updated.push_back(moved);
+  map.apply(second, true);
+  EXPECT_EQ(map.numPoints(), n - second.points_removed.size());
+
+  // Points with a vertical sigma above the limit are not used; a line of points gives no plane.
+  TerrainMap unusable(smallArea());
+  MapEvents bad = pointsOnSurface(1.0, 0.05, 1, 4);
+  for (MapPointState& p : bad.points_added) p.covariance_world(2, 2) = 9.0;  // 3 m > 2 m
+  unusable.apply(bad, true);
+  EXPECT_EQ(unusable.products().num_used, 0u);
+  TerrainMap line(smallArea());
+  MapEvents on_a_line;
+  for (int i = 0; i < 200; ++i) {
+    MapPointState p;
+    p.id = static_cast<uint64_t>(i + 1);
+    p.p_world = Eigen::Vector3d(-10.0 + 0.1 * i, 5.0, 0.0);
+    p.covariance_world = 1e-4 * Eigen::Matrix3d::Identity();
+    on_a_line.points_added.push_back(p);
+  }
+  line.apply(on_a_line, true);
+  const TerrainProducts products = line.products();
+  EXPECT_EQ(products.cells_known, 0);
+  EXPECT_TRUE(std::isnan(at(products, "elevation_m", 0.0, 5.0)));
+
+  // Becoming metric rescales the VO's map: the points retired in the old unit are dropped.
+  map.apply(MapEvents(), false);
+  EXPECT_EQ(map.numPoints(), n - second.points_removed.size() - second.points_retired.size());
+  EXPECT_FALSE(map.products().metric);
+  EXPECT_THROW(TerrainMap(TerrainMapConfig{LandingAreaParams(), -1.0}), std::invalid_argument);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

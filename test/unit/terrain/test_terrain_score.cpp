@@ -1,0 +1,82 @@
+// The hazard mask and the score of an estimated terrain map against the truth.
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "planetary_vo/terrain/terrain_score.h"
+
+using namespace planetary_vo::terrain;
+
+namespace {
+
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+/// 10 x 10 cells: elevation = col, slope 5 deg except a 12 deg column 2, roughness 0.1 m except 0.5 m in
+/// row 7.
+GridSet truthGrids() {
+  GridSet g;
+  g.geometry.cols = g.geometry.rows = 10;
+  g.geometry.cell_size_m = 1.0;
+  cv::Mat z = g.geometry.newLayer(), s = g.geometry.newLayer(5.0f), r = g.geometry.newLayer(0.1f);
+  for (int row = 0; row < 10; ++row)
+    for (int col = 0; col < 10; ++col) z.at<float>(row, col) = static_cast<float>(col);
+  s.col(2).setTo(12.0f);
+  r.row(7).setTo(0.5f);
+  g.layers = {{"elevation_m", z}, {"slope_deg", s}, {"roughness_m", r}};
+  return g;
+}
+
+}  // namespace
+
+TEST(Hazard, MaskMarksSlopeRoughnessAndUnknownCells) {
+  const GridSet g = truthGrids();
+  cv::Mat slope = g.layers.at("slope_deg").clone();
+  slope.at<float>(0, 0) = kNaN;
+  const cv::Mat mask = hazardMask(slope, g.layers.at("roughness_m"), HazardThresholds());
+  EXPECT_EQ(mask.at<uint8_t>(0, 0), kUnknown);
+  EXPECT_EQ(mask.at<uint8_t>(1, 1), kSafe);
+  EXPECT_EQ(mask.at<uint8_t>(1, 2), kHazard);  // 12 deg
+  EXPECT_EQ(mask.at<uint8_t>(7, 5), kHazard);  // 0.5 m
+  EXPECT_THROW(hazardMask(slope, cv::Mat(3, 3, CV_32F), HazardThresholds()), std::invalid_argument);
+}
+
+TEST(TerrainScore, ErrorsCoverageAndHazardPrecisionRecall) {
+  const GridSet truth = truthGrids();
+  const TerrainScore perfect = scoreTerrain(truth, truth, HazardThresholds());
+  EXPECT_EQ(perfect.cells, 100);
+  EXPECT_EQ(perfect.elevation_rmse_m, 0.0);
+  EXPECT_EQ(perfect.elevation_coverage, 1.0);
+  EXPECT_EQ(perfect.hazard_tp, 19);  // column 2 and row 7
+  EXPECT_EQ(perfect.hazard_precision, 1.0);
+  EXPECT_EQ(perfect.hazard_recall, 1.0);
+
+  // An estimate 0.5 m high, with half the area unknown, that misses the slope hazard and invents one.
+  GridSet estimate = truthGrids();
+  estimate.layers["elevation_m"] += 0.5;
+  estimate.layers["slope_deg"].col(2).setTo(5.0f);
+  estimate.layers["slope_deg"].at<float>(0, 0) = 20.0f;
+  for (const char* name : {"elevation_m", "slope_deg", "roughness_m"})
+    estimate.layers[name].rowRange(0, 5).colRange(5, 10).setTo(kNaN);
+  const TerrainScore s = scoreTerrain(truth, estimate, HazardThresholds());
+  EXPECT_EQ(s.cells_elevation, 75);
+  EXPECT_DOUBLE_EQ(s.elevation_coverage, 0.75);
+  EXPECT_NEAR(s.elevation_rmse_m, 0.5, 1e-6);
+  EXPECT_NEAR(s.elevation_mean_error_m, 0.5, 1e-6);
+  // Known cells: 75. True hazards among them: column 2 (10) + row 7 (10) - overlap 1 = 19; found: row 7 (10).
+  EXPECT_EQ(s.hazard_tp, 10);
+  EXPECT_EQ(s.hazard_fn, 9);
+  EXPECT_EQ(s.hazard_fp, 1);  // (0, 0) was safe
+  EXPECT_NEAR(s.hazard_recall, 10.0 / 19.0, 1e-12);
+  EXPECT_NEAR(s.hazard_precision, 10.0 / 11.0, 1e-12);
+  EXPECT_NE(toJson(s).find("\"hazard_tp\": 10"), std::string::npos);
+
+  GridSet other = truthGrids();
+  other.geometry.cell_size_m = 0.5;
+  EXPECT_THROW(scoreTerrain(truth, other, HazardThresholds()), std::invalid_argument);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
