@@ -1,5 +1,6 @@
 #include "planetary_vo/terrain/terrain_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -56,6 +57,23 @@ void TerrainMap::apply(const MapEvents& events, bool metric_scale) {
 void TerrainMap::clear() {
   points_.clear();
   metric_ = false;
+}
+
+double TerrainMap::medianGroundHeight() const {
+  const GridGeometry geometry = config_.area.geometry();
+  const double R = config_.support_radius_m;
+  std::vector<double> z;
+  for (const auto& entry : points_) {
+    const Eigen::Vector3d& p = entry.second.p_world;
+    if (p.x() < geometry.x_m(0) - R || p.x() > geometry.x_m(geometry.cols - 1) + R ||
+        p.y() < geometry.y_m(0) - R || p.y() > geometry.y_m(geometry.rows - 1) + R ||
+        !(entry.second.sigma_z <= config_.max_point_sigma_z_m))
+      continue;
+    z.push_back(p.z());
+  }
+  if (z.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  return z[z.size() / 2];
 }
 
 TerrainProducts TerrainMap::products() const {

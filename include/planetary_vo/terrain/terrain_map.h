@@ -65,6 +65,9 @@ class TerrainMap {
   void clear();
 
   size_t numPoints() const { return points_.size(); }
+  /// Median height (world z) of the usable points over the landing area (plus the support radius); NaN
+  /// without any. The ground height a densifier predicts with (densifier.h).
+  double medianGroundHeight() const;
   const TerrainMapConfig& config() const { return config_; }
   /// The rasters of the landing area now (cost: the points near the area times the cells).
   TerrainProducts products() const;

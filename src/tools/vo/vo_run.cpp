@@ -42,6 +42,7 @@
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
+#include "planetary_vo/terrain/densifier.h"
 #include "planetary_vo/terrain/terrain_map.h"
 #include "planetary_vo/vo/config_yaml.h"
 #include "planetary_vo/vo/pipeline.h"
@@ -258,9 +259,12 @@ int main(int argc, char** argv) {
           << "# frame timestamp_s state tracked new inliers map_points keyframe model total_ms message\n";
     }
     std::optional<terrain::TerrainMap> terrain_map;
+    std::optional<terrain::Densifier> densifier;
+    terrain::DensifierStats densified;
     if (!options.terrain_dir.empty()) {
       std::filesystem::create_directories(options.terrain_dir);
       terrain_map.emplace();
+      densifier.emplace(dataset.camera());
     }
     Trajectory trajectory;
     std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
@@ -278,7 +282,22 @@ int main(int argc, char** argv) {
         pipeline.addImu(imu[next_imu++]);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
       if (r.metric_scale && metric_from_frame < 0) metric_from_frame = static_cast<int>(r.frame_index);
-      if (terrain_map) terrain_map->apply(r.map_events, r.metric_scale);
+      if (terrain_map) {
+        terrain_map->apply(r.map_events, r.metric_scale);
+        // The new keyframe's image densifies the landing area against an earlier one.
+        if (!r.map_events.keyframes_added.empty() && r.metric_scale) {
+          const MapKeyframeState& kf = r.map_events.keyframes_added.back();
+          const double ground_z = terrain_map->medianGroundHeight();
+          terrain::DensifierStats stats;
+          MapEvents dense;
+          dense.points_added = densifier->addKeyframe(kf.timestamp_s, kf.T_world_cam, gray,
+                                                      std::isfinite(ground_z) ? ground_z : 0.0, &stats);
+          terrain_map->apply(dense, r.metric_scale);
+          densified.seeds += stats.seeds;
+          densified.tracked += stats.tracked;
+          densified.triangulated += stats.triangulated;
+        }
+      }
       if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
       if (!r.processed) continue;
       ++processed;
@@ -321,6 +340,9 @@ int main(int argc, char** argv) {
     if (progress) std::fprintf(stderr, "\n");
     writeTumTrajectory(options.output_path, trajectory);
     if (terrain_map) {
+      if (!options.quiet)
+        std::printf("terrain: densified %d corners, %d tracked, %d triangulated\n", densified.seeds,
+                    densified.tracked, densified.triangulated);
       const terrain::TerrainProducts products = terrain_map->products();
       terrain::writeGridSet(options.terrain_dir, "terrain", products.grids);
       if (!options.quiet)
