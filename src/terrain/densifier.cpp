@@ -45,8 +45,9 @@ Densifier::Densifier(const PinholeCamera& camera, const DensifierConfig& config)
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Densifier: invalid camera: " + why);
   if (config_.grid_step_px < 1 || config_.max_corners < 1 || config_.max_keyframe_gap < 1 ||
-      !(config_.pixel_sigma_px > 0.0) || !(config_.min_parallax_deg > 0.0) ||
-      !(config_.max_forward_backward_px > 0.0) || config_.klt_window_px < 5 || config_.klt_levels < 0 ||
+      config_.partners_per_keyframe < 1 || !(config_.pixel_sigma_px > 0.0) ||
+      !(config_.min_parallax_deg > 0.0) || !(config_.max_forward_backward_px > 0.0) ||
+      config_.klt_window_px < 5 || config_.klt_levels < 0 ||
       !(config_.min_corner_quality > 0.0 && config_.min_corner_quality < 1.0))
     throw std::invalid_argument("Densifier: invalid configuration");
 }
@@ -108,28 +109,33 @@ std::vector<MapPointState> Densifier::addKeyframe(double timestamp_s, const Pose
   // The partner: the stored keyframe that sees most of the area together with the new one, its overlap
   // weighted down while the parallax is below the target (a short baseline gives poor depths, a long one
   // a small overlap and a harder track).
-  const StoredKeyframe* partner = nullptr;
-  cv::Mat mask;
+  struct Candidate {
+    double score;
+    size_t index;
+    cv::Mat mask;
+  };
+  std::vector<Candidate> candidates;
   const int min_cells = std::max(1, config_.min_seeds / 4);
-  double best_score = 0.0;
   for (size_t k = 0; k < keyframes_.size(); ++k) {
     int cells = 0;
     double parallax_deg = 0.0;
     cv::Mat m = overlapMask(keyframes_[k], &cells, &parallax_deg);
     const double score = cells * std::min(1.0, parallax_deg / config_.target_parallax_deg);
-    if (cells >= min_cells && parallax_deg >= config_.min_parallax_deg && score > best_score) {
-      best_score = score;
-      partner = &keyframes_[k];
-      mask = m;
-      st.partner_gap = static_cast<int>(keyframes_.size() - k);
-    }
+    if (cells >= min_cells && parallax_deg >= config_.min_parallax_deg) candidates.push_back({score, k, m});
   }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& x, const Candidate& y) { return x.score > y.score; });
+  if (static_cast<int>(candidates.size()) > config_.partners_per_keyframe)
+    candidates.resize(static_cast<size_t>(config_.partners_per_keyframe));
+  if (!candidates.empty()) st.partner_gap = static_cast<int>(keyframes_.size() - candidates.front().index);
 
-  if (partner != nullptr) {
+  for (const Candidate& candidate : candidates) {
+    const StoredKeyframe* partner = &keyframes_[candidate.index];
+    const cv::Mat& mask = candidate.mask;
     std::vector<cv::Point2f> seeds;
     cv::goodFeaturesToTrack(partner->gray, seeds, config_.max_corners, config_.min_corner_quality,
                             config_.grid_step_px, mask, 5);
-    st.seeds = static_cast<int>(seeds.size());
+    st.seeds += static_cast<int>(seeds.size());
     // Predicted positions through the plane; corners whose ray misses it are dropped.
     std::vector<cv::Point2f> from, guess;
     from.reserve(seeds.size());
@@ -166,7 +172,7 @@ std::vector<MapPointState> Densifier::addKeyframe(double timestamp_s, const Pose
         kept_from.push_back(from[i]);
         kept_to.push_back(to[i]);
       }
-      st.tracked = static_cast<int>(kept_from.size());
+      st.tracked += static_cast<int>(kept_from.size());
 
       const Eigen::Vector3d c0 = partner->T_world_cam.translation(), c1 = T_world_cam.translation();
       const double sigma_rad = config_.pixel_sigma_px / camera_.fx();

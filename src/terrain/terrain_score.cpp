@@ -1,9 +1,11 @@
 #include "planetary_vo/terrain/terrain_score.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace planetary_vo::terrain {
 namespace {
@@ -37,6 +39,8 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   score.cells = truth.geometry.rows * truth.geometry.cols;
   int true_elevation = 0, true_surface = 0;
   double sz = 0, szz = 0, sss = 0, srr = 0;
+  std::vector<double> slope_errors;
+  double ss = 0, sr = 0;
   for (int row = 0; row < truth.geometry.rows; ++row) {
     for (int col = 0; col < truth.geometry.cols; ++col) {
       const float zt = z_true.at<float>(row, col), ze = z_est.at<float>(row, col);
@@ -54,6 +58,9 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
       if (he == kUnknown) continue;
       ++score.cells_surface;
       sss += std::pow(s_est.at<float>(row, col) - s_true.at<float>(row, col), 2);
+      slope_errors.push_back(std::abs(s_est.at<float>(row, col) - s_true.at<float>(row, col)));
+      ss += s_est.at<float>(row, col) - s_true.at<float>(row, col);
+      sr += r_est.at<float>(row, col) - r_true.at<float>(row, col);
       srr += std::pow(r_est.at<float>(row, col) - r_true.at<float>(row, col), 2);
       if (ht == kHazard && he == kHazard) ++score.hazard_tp;
       if (ht == kSafe && he == kHazard) ++score.hazard_fp;
@@ -68,6 +75,16 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   score.surface_coverage = ratio(score.cells_surface, true_surface);
   score.slope_rmse_deg = score.cells_surface > 0 ? std::sqrt(sss / score.cells_surface) : nan;
   score.roughness_rmse_m = score.cells_surface > 0 ? std::sqrt(srr / score.cells_surface) : nan;
+  auto quantile = [&](double q) {
+    if (slope_errors.empty()) return nan;
+    const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(slope_errors.size() - 1));
+    std::nth_element(slope_errors.begin(), slope_errors.begin() + k, slope_errors.end());
+    return slope_errors[static_cast<size_t>(k)];
+  };
+  score.slope_mean_error_deg = score.cells_surface > 0 ? ss / score.cells_surface : nan;
+  score.roughness_mean_error_m = score.cells_surface > 0 ? sr / score.cells_surface : nan;
+  score.slope_error_median_deg = quantile(0.5);
+  score.slope_error_p90_deg = quantile(0.9);
   score.hazard_precision = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fp);
   score.hazard_recall = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fn);
   return score;
@@ -94,6 +111,10 @@ std::string toJson(const TerrainScore& s) {
   num("surface_coverage", s.surface_coverage);
   num("slope_rmse_deg", s.slope_rmse_deg);
   num("roughness_rmse_m", s.roughness_rmse_m);
+  num("slope_error_median_deg", s.slope_error_median_deg);
+  num("slope_error_p90_deg", s.slope_error_p90_deg);
+  num("slope_mean_error_deg", s.slope_mean_error_deg);
+  num("roughness_mean_error_m", s.roughness_mean_error_m);
   num("hazard_tp", s.hazard_tp);
   num("hazard_fp", s.hazard_fp);
   num("hazard_fn", s.hazard_fn);

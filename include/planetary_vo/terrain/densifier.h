@@ -42,6 +42,8 @@ struct DensifierConfig {
   /// The partner is the one whose overlap with the new keyframe over the area, times min(1, median
   /// parallax / target_parallax_deg), is largest.
   double target_parallax_deg = 5.0;
+  /// Partners per keyframe, best first: each ground point is measured by that many pairs.
+  int partners_per_keyframe = 1;
   int min_seeds = 50;             ///< a partner must offer at least this many corners
   double min_parallax_deg = 1.5;  ///< ray angle of a kept point
   double max_forward_backward_px = 0.5;
@@ -51,7 +53,7 @@ struct DensifierConfig {
 };
 
 struct DensifierStats {
-  int partner_gap = 0;  ///< keyframes between the pair (0: no pair)
+  int partner_gap = 0;  ///< keyframes between the best pair (0: no pair)
   int seeds = 0, tracked = 0, triangulated = 0;
 };
 

@@ -21,6 +21,8 @@ struct TerrainScore {
   int cells_surface = 0;        ///< cells with true and estimated slope and roughness
   double surface_coverage = 0;  ///< cells_surface / cells with a true slope and roughness
   double slope_rmse_deg = 0, roughness_rmse_m = 0;
+  double slope_error_median_deg = 0, slope_error_p90_deg = 0;  ///< of |estimate - truth|
+  double slope_mean_error_deg = 0, roughness_mean_error_m = 0;  ///< estimate - truth (a bias)
   /// Hazard cells over cells_surface: true positives (hazard in both), false positives (estimated only),
   /// false negatives (true only), true negatives.
   int hazard_tp = 0, hazard_fp = 0, hazard_fn = 0, hazard_tn = 0;

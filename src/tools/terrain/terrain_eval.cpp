@@ -6,14 +6,19 @@
 ///                [--json FILE]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
-/// (terrain/terrain_score.h); exit 0 when scored, 2 on bad arguments or files.
+/// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
+/// support (parameter support_radius_m), against the truth seen at that resolution (terrain/resolution.h);
+/// exit 0 when scored, 2 on bad arguments or files.
 
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <fstream>
+#include <optional>
+#include <stdexcept>
 #include <string>
 
+#include "planetary_vo/terrain/resolution.h"
 #include "planetary_vo/terrain/terrain_score.h"
 
 using namespace planetary_vo::terrain;
@@ -62,21 +67,51 @@ int main(int argc, char** argv) {
     const GridSet truth = readGridSet(gt_dir, "groundtruth_terrain");
     const GridSet estimate = readGridSet(est_dir, est_name);
     const TerrainScore s = scoreTerrain(truth, estimate, thresholds);
+    // The truth at the resolution the map claims (its plane-fit support), when it says.
+    std::optional<TerrainScore> at_support;
+    double support_m = 0.0;
+    if (const auto it = estimate.parameters.find("support_radius_m"); it != estimate.parameters.end()) {
+      support_m = it->second;
+      const auto footprint = truth.parameters.find("footprint_diameter_m");
+      if (footprint == truth.parameters.end())
+        throw std::runtime_error("the truth's grid set has no footprint_diameter_m parameter");
+      at_support = scoreTerrain(truthAtSupport(truth, support_m, footprint->second), estimate, thresholds);
+    }
     std::printf("terrain: %d x %d cells of %.2f m (%d cells)\n", truth.geometry.cols, truth.geometry.rows,
                 truth.geometry.cell_size_m, s.cells);
     std::printf("  elevation  coverage %.1f %% (%d cells), RMSE %.3f m, mean error %+.3f m\n",
                 100.0 * s.elevation_coverage, s.cells_elevation, s.elevation_rmse_m,
                 s.elevation_mean_error_m);
-    std::printf("  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg, roughness RMSE %.3f m\n",
-                100.0 * s.surface_coverage, s.cells_surface, s.slope_rmse_deg, s.roughness_rmse_m);
+    std::printf(
+        "  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg (|error| median %.2f, p90 %.2f, mean "
+        "error %+.2f), roughness RMSE %.3f m (mean error %+.3f)\n",
+        100.0 * s.surface_coverage, s.cells_surface, s.slope_rmse_deg, s.slope_error_median_deg,
+        s.slope_error_p90_deg, s.slope_mean_error_deg, s.roughness_rmse_m, s.roughness_mean_error_m);
     std::printf(
         "  hazards (slope > %.1f deg or roughness > %.2f m): precision %.3f, recall %.3f "
         "(tp %d, fp %d, fn %d, tn %d)\n",
         thresholds.max_slope_deg, thresholds.max_roughness_m, s.hazard_precision, s.hazard_recall,
         s.hazard_tp, s.hazard_fp, s.hazard_fn, s.hazard_tn);
+    if (at_support) {
+      const TerrainScore& r = *at_support;
+      std::printf("at the map's resolution (the truth seen through its %.1f m plane-fit support):\n",
+                  support_m);
+      std::printf("  elevation  coverage %.1f %% (%d cells), RMSE %.3f m, mean error %+.3f m\n",
+                  100.0 * r.elevation_coverage, r.cells_elevation, r.elevation_rmse_m,
+                  r.elevation_mean_error_m);
+      std::printf(
+          "  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg (|error| median %.2f, p90 %.2f, "
+          "mean error %+.2f), roughness RMSE %.3f m (mean error %+.3f)\n",
+          100.0 * r.surface_coverage, r.cells_surface, r.slope_rmse_deg, r.slope_error_median_deg,
+          r.slope_error_p90_deg, r.slope_mean_error_deg, r.roughness_rmse_m, r.roughness_mean_error_m);
+      std::printf("  hazards: precision %.3f, recall %.3f (tp %d, fp %d, fn %d, tn %d)\n", r.hazard_precision,
+                  r.hazard_recall, r.hazard_tp, r.hazard_fp, r.hazard_fn, r.hazard_tn);
+    }
     if (!json_path.empty()) {
       std::ofstream out(json_path);
-      out << toJson(s);
+      out << "{\"full_resolution\": " << toJson(s);
+      if (at_support) out << ", \"at_map_resolution\": " << toJson(*at_support);
+      out << "}\n";
       if (!out) throw std::runtime_error("cannot write " + json_path);
     }
   } catch (const std::exception& e) {

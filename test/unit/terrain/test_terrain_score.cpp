@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "planetary_vo/terrain/resolution.h"
 #include "planetary_vo/terrain/terrain_score.h"
 
 using namespace planetary_vo::terrain;
@@ -70,10 +71,49 @@ TEST(TerrainScore, ErrorsCoverageAndHazardPrecisionRecall) {
   EXPECT_NEAR(s.hazard_recall, 10.0 / 19.0, 1e-12);
   EXPECT_NEAR(s.hazard_precision, 10.0 / 11.0, 1e-12);
   EXPECT_NE(toJson(s).find("\"hazard_tp\": 10"), std::string::npos);
+  // Slope errors: the 10 cells of column 2 at -7 deg (12 -> 5), (0, 0) at +15 deg, the rest exact.
+  EXPECT_NEAR(s.slope_mean_error_deg, (-7.0 * 10 + 15.0) / 75.0, 1e-6);
+  EXPECT_EQ(s.slope_error_median_deg, 0.0);
+  EXPECT_NEAR(s.slope_error_p90_deg, 7.0, 1e-6);
 
   GridSet other = truthGrids();
   other.geometry.cell_size_m = 0.5;
   EXPECT_THROW(scoreTerrain(truth, other, HazardThresholds()), std::invalid_argument);
+}
+
+// The truth at a map's resolution: a plane stays the same plane (a local plane fit reproduces it), a one-cell
+// spike is spread over the support, cells whose support leaves the grid or meets an unknown are unknown.
+TEST(Resolution, PlaneFitSupportKeepsPlanesAndSpreadsSpikes) {
+  GridGeometry g;
+  g.cols = g.rows = 41;
+  g.cell_size_m = 0.5;
+  cv::Mat plane = g.newLayer();
+  for (int row = 0; row < g.rows; ++row)
+    for (int col = 0; col < g.cols; ++col)
+      plane.at<float>(row, col) = static_cast<float>(0.2 * g.x_m(col) - 0.1 * g.y_m(row) + 3.0);
+  const cv::Mat seen = elevationAtSupport(g, plane, 2.0);
+  EXPECT_TRUE(std::isnan(seen.at<float>(0, 0)));
+  EXPECT_TRUE(std::isnan(seen.at<float>(20, 3)));  // support leaves the grid (reach 4 cells)
+  for (int row = 4; row < g.rows - 4; ++row)
+    for (int col = 4; col < g.cols - 4; ++col)
+      ASSERT_NEAR(seen.at<float>(row, col), plane.at<float>(row, col), 1e-4) << row << " " << col;
+
+  cv::Mat spike = g.newLayer(0.0f);
+  spike.at<float>(20, 20) = 1.0f;
+  spike.at<float>(5, 30) = kNaN;
+  const cv::Mat spread = elevationAtSupport(g, spike, 2.0);
+  EXPECT_GT(spread.at<float>(20, 20), 0.0f);
+  EXPECT_LT(spread.at<float>(20, 20), 0.2f);
+  EXPECT_GT(spread.at<float>(20, 22), 0.0f);
+  EXPECT_TRUE(std::isnan(spread.at<float>(6, 30)));
+
+  GridSet truth;
+  truth.geometry = g;
+  truth.layers["elevation_m"] = plane;
+  const GridSet at = truthAtSupport(truth, 2.0, 2.0);
+  EXPECT_NEAR(at.layers.at("slope_deg").at<float>(20, 20), std::atan(std::hypot(0.2, 0.1)) * 180.0 / M_PI,
+              1e-3);
+  EXPECT_THROW(elevationAtSupport(g, plane, 0.25), std::invalid_argument);
 }
 
 int main(int argc, char** argv) {
