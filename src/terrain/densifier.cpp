@@ -6,6 +6,7 @@
 #include <string>
 
 #include <Eigen/Cholesky>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -152,21 +153,32 @@ std::vector<MapPointState> Densifier::addKeyframe(double timestamp_s, const Pose
     if (static_cast<int>(from.size()) >= config_.min_seeds) {
       const cv::Size window(config_.klt_window_px, config_.klt_window_px);
       const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+      // The tracked image: the partner's, or the partner's warped by the ground plane's homography onto
+      // the new view (then the windows differ only by the relief, not by the views' scale and rotation).
+      cv::Mat source = partner->gray;
+      std::vector<cv::Point2f> start = from;
+      if (config_.warp_partner) {
+        const cv::Mat H = cv::findHomography(from, guess, 0);
+        if (!H.empty()) {
+          cv::warpPerspective(partner->gray, source, H, gray.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+          cv::perspectiveTransform(from, start, H);
+        }
+      }
       std::vector<cv::Point2f> to = guess, back(from.size());
       std::vector<uint8_t> status, back_status;
       std::vector<float> error;
-      cv::calcOpticalFlowPyrLK(partner->gray, gray, from, to, status, error, window, config_.klt_levels,
-                               criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+      cv::calcOpticalFlowPyrLK(source, gray, start, to, status, error, window, config_.klt_levels, criteria,
+                               cv::OPTFLOW_USE_INITIAL_FLOW);
       // Backward from where the forward track ended minus the predicted motion (see vo/klt_tracker.cpp: a
       // backward start at the original position would "return" by construction).
-      for (size_t i = 0; i < from.size(); ++i) back[i] = to[i] - (guess[i] - from[i]);
-      cv::calcOpticalFlowPyrLK(gray, partner->gray, to, back, back_status, error, window, config_.klt_levels,
+      for (size_t i = 0; i < from.size(); ++i) back[i] = to[i] - (guess[i] - start[i]);
+      cv::calcOpticalFlowPyrLK(gray, source, to, back, back_status, error, window, config_.klt_levels,
                                criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
       const double fb_max2 = config_.max_forward_backward_px * config_.max_forward_backward_px;
       std::vector<cv::Point2f> kept_from, kept_to;
       for (size_t i = 0; i < from.size(); ++i) {
         if (!status[i] || !back_status[i]) continue;
-        const double dx = back[i].x - from[i].x, dy = back[i].y - from[i].y;
+        const double dx = back[i].x - start[i].x, dy = back[i].y - start[i].y;
         if (dx * dx + dy * dy > fb_max2) continue;
         if (!camera_.isInImage({to[i].x, to[i].y}, 2.0)) continue;
         kept_from.push_back(from[i]);

@@ -11,7 +11,9 @@
 /// Per pair: corners (cv::goodFeaturesToTrack, at most one per grid_step_px) in the old keyframe's image
 /// where its rays meet the plane z = ground_z_m inside the landing area (plus support margin); their
 /// position in the new image predicted through that plane (the homography it induces) and refined by
-/// pyramidal Lucas-Kanade, kept when the backward track returns within max_forward_backward_px; then the
+/// pyramidal Lucas-Kanade from the old image warped onto the new view by that homography (warp_partner: a
+/// translation-only window is biased by the views' scale and rotation; on approach_down this halved the
+/// slope error), kept when the backward track returns within max_forward_backward_px; then the
 /// two rays' midpoint, kept when the rays meet within 2 pixel sigmas, both depths are positive and the
 /// ray angle is at least min_parallax_deg. The point's covariance is the two-ray triangulation covariance
 /// at pixel_sigma_px (the keyframe poses taken as exact, like the VO's map events).
@@ -44,6 +46,9 @@ struct DensifierConfig {
   double target_parallax_deg = 5.0;
   /// Partners per keyframe, best first: each ground point is measured by that many pairs.
   int partners_per_keyframe = 1;
+  /// Track from the partner image warped onto the new view by the ground plane's homography (fitted to the
+  /// predicted positions), so that the windows differ only by the relief.
+  bool warp_partner = true;
   int min_seeds = 50;             ///< a partner must offer at least this many corners
   double min_parallax_deg = 1.5;  ///< ray angle of a kept point
   double max_forward_backward_px = 0.5;
