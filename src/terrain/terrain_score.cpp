@@ -90,6 +90,38 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   return score;
 }
 
+SiteCheck checkSite(const GridSet& truth, const LandingSite& site, const HazardThresholds& thresholds,
+                    const LandingSiteParams& params) {
+  const cv::Mat& slope = layer(truth, "slope_deg", "truth");
+  const cv::Mat& roughness = layer(truth, "roughness_m", "truth");
+  const cv::Mat hazard = hazardMask(slope, roughness, thresholds);
+  const GridGeometry& g = truth.geometry;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  SiteCheck check;
+  int col = 0, row = 0;
+  const bool inside = g.cellAt(site.x_m, site.y_m, &col, &row);
+  check.true_slope_deg = inside ? slope.at<float>(row, col) : nan;
+  check.true_roughness_m = inside ? roughness.at<float>(row, col) : nan;
+  check.nearest_unsafe_m = nan;
+  const double clearance = params.min_clearance_m;
+  const int reach = static_cast<int>(std::ceil(3.0 * clearance / g.cell_size_m)) + 1;
+  for (int dr = -reach; dr <= reach; ++dr) {
+    for (int dc = -reach; dc <= reach; ++dc) {
+      const double d = std::hypot(dc * g.cell_size_m, dr * g.cell_size_m);
+      if (d > 3.0 * clearance) continue;
+      const int c = col + dc, r = row + dr;
+      const uint8_t h = (inside && g.contains(c, r)) ? hazard.at<uint8_t>(r, c) : kUnknown;
+      if (h != kSafe && !(d >= check.nearest_unsafe_m)) check.nearest_unsafe_m = d;
+      if (d > clearance) continue;
+      ++check.cells_checked;
+      check.cells_hazard += h == kHazard ? 1 : 0;
+      check.cells_unknown += h == kUnknown ? 1 : 0;
+    }
+  }
+  check.truly_safe = inside && check.cells_hazard == 0 && check.cells_unknown == 0;
+  return check;
+}
+
 std::string toJson(const TerrainScore& s) {
   std::ostringstream out;
   out.precision(10);

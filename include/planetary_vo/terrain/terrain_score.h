@@ -10,6 +10,7 @@
 
 #include "planetary_vo/terrain/grid.h"
 #include "planetary_vo/terrain/hazard.h"
+#include "planetary_vo/terrain/landing_sites.h"
 
 namespace planetary_vo::terrain {
 
@@ -21,7 +22,7 @@ struct TerrainScore {
   int cells_surface = 0;        ///< cells with true and estimated slope and roughness
   double surface_coverage = 0;  ///< cells_surface / cells with a true slope and roughness
   double slope_rmse_deg = 0, roughness_rmse_m = 0;
-  double slope_error_median_deg = 0, slope_error_p90_deg = 0;  ///< of |estimate - truth|
+  double slope_error_median_deg = 0, slope_error_p90_deg = 0;   ///< of |estimate - truth|
   double slope_mean_error_deg = 0, roughness_mean_error_m = 0;  ///< estimate - truth (a bias)
   /// Hazard cells over cells_surface: true positives (hazard in both), false positives (estimated only),
   /// false negatives (true only), true negatives.
@@ -32,6 +33,22 @@ struct TerrainScore {
 /// Throws std::invalid_argument when the geometries differ or a layer (elevation_m, slope_deg,
 /// roughness_m) is missing.
 TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const HazardThresholds& thresholds);
+
+/// A chosen landing site against the truth: safe when every true cell within the clearance the site was
+/// chosen with (LandingSiteParams::min_clearance_m, centre to centre, as findLandingSites counts it) is known
+/// and safe.
+struct SiteCheck {
+  bool truly_safe = false;
+  double true_slope_deg = 0, true_roughness_m = 0;             ///< at the site's cell (NaN when unknown)
+  int cells_checked = 0, cells_hazard = 0, cells_unknown = 0;  ///< within the clearance
+  /// Distance from the site to the nearest true hazard or unknown cell found within 3 clearances (NaN:
+  /// none there).
+  double nearest_unsafe_m = 0;
+};
+
+/// Throws std::invalid_argument when the truth lacks slope_deg or roughness_m.
+SiteCheck checkSite(const GridSet& truth, const LandingSite& site, const HazardThresholds& thresholds,
+                    const LandingSiteParams& params);
 
 /// The score as one JSON object (NaN as null).
 std::string toJson(const TerrainScore& score);

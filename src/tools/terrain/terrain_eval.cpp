@@ -3,12 +3,13 @@
 ///
 ///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10] [--max-roughness-m
 ///   0.3]
-///                [--json FILE]
+///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 50] [--confidence-k 2] [--json FILE]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
 /// support (parameter support_radius_m), against the truth seen at that resolution (terrain/resolution.h);
-/// exit 0 when scored, 2 on bad arguments or files.
+/// then the landing site the estimated map chooses near the target (terrain/landing_sites.h, default
+/// parameters) and whether it is truly safe (checkSite). Exit 0 when scored, 2 on bad arguments or files.
 
 #include <cstdio>
 #include <cstdlib>
@@ -28,7 +29,8 @@ namespace {
 int usage(const char* why) {
   std::fprintf(stderr,
                "terrain_eval: %s\nusage: terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] "
-               "[--max-slope-deg D] [--max-roughness-m M] [--json FILE]\n",
+               "[--max-slope-deg D] [--max-roughness-m M] [--target-x-m X --target-y-m Y] [--max-divert-m R] "
+               "[--confidence-k K] [--json FILE]\n",
                why);
   return 2;
 }
@@ -38,6 +40,7 @@ int usage(const char* why) {
 int main(int argc, char** argv) {
   std::string gt_dir, est_dir, est_name = "terrain", json_path;
   HazardThresholds thresholds;
+  LandingSiteParams site_params;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (i + 1 >= argc) return usage(("missing value after " + arg).c_str());
@@ -55,6 +58,14 @@ int main(int argc, char** argv) {
         thresholds.max_slope_deg = std::stod(value);
       else if (arg == "--max-roughness-m")
         thresholds.max_roughness_m = std::stod(value);
+      else if (arg == "--target-x-m")
+        site_params.target_x_m = std::stod(value);
+      else if (arg == "--target-y-m")
+        site_params.target_y_m = std::stod(value);
+      else if (arg == "--max-divert-m")
+        site_params.max_distance_from_target_m = std::stod(value);
+      else if (arg == "--confidence-k")
+        site_params.confidence_k = std::stod(value);
       else
         return usage(("unknown option " + arg).c_str());
     } catch (const std::exception&) {
@@ -106,6 +117,23 @@ int main(int argc, char** argv) {
           r.slope_error_p90_deg, r.slope_mean_error_deg, r.roughness_rmse_m, r.roughness_mean_error_m);
       std::printf("  hazards: precision %.3f, recall %.3f (tp %d, fp %d, fn %d, tn %d)\n", r.hazard_precision,
                   r.hazard_recall, r.hazard_tp, r.hazard_fp, r.hazard_fn, r.hazard_tn);
+    }
+    // The landing site the map would choose, and whether the truth agrees.
+    const LandingSiteResult chosen = findLandingSites(estimate, thresholds, site_params);
+    if (chosen.sites.empty()) {
+      std::printf("landing site: none within %.0f m of (%.1f, %.1f): %s\n",
+                  site_params.max_distance_from_target_m, site_params.target_x_m, site_params.target_y_m,
+                  chosen.reason.c_str());
+    } else {
+      const LandingSite& best = chosen.sites.front();
+      const SiteCheck check = checkSite(truth, best, thresholds, site_params);
+      std::printf(
+          "landing site: (%.1f, %.1f) m, %.1f m from the target, estimated slope %.1f deg, roughness "
+          "%.2f m, clearance %.1f m; truth: slope %.1f deg, roughness %.2f m, %s (%d hazardous and %d "
+          "unknown of %d cells within %.1f m)\n",
+          best.x_m, best.y_m, best.distance_to_target_m, best.slope_deg, best.roughness_m, best.clearance_m,
+          check.true_slope_deg, check.true_roughness_m, check.truly_safe ? "SAFE" : "NOT SAFE",
+          check.cells_hazard, check.cells_unknown, check.cells_checked, site_params.min_clearance_m);
     }
     if (!json_path.empty()) {
       std::ofstream out(json_path);

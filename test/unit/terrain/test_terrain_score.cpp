@@ -116,6 +116,40 @@ TEST(Resolution, PlaneFitSupportKeepsPlanesAndSpreadsSpikes) {
   EXPECT_THROW(elevationAtSupport(g, plane, 0.25), std::invalid_argument);
 }
 
+// A chosen site is truly safe only when every true cell within its clearance is known and safe.
+TEST(TerrainScore, SiteCheckLooksAtEveryTrueCellWithinTheClearance) {
+  GridSet truth;
+  truth.geometry = GridGeometry::centeredOnOrigin(10.0, 0.5);
+  truth.layers["slope_deg"] = truth.geometry.newLayer(2.0f);
+  truth.layers["roughness_m"] = truth.geometry.newLayer(0.05f);
+  LandingSiteParams params;
+  params.min_clearance_m = 3.0;
+  LandingSite site;  // at the origin
+  int col = 0, row = 0;
+  ASSERT_TRUE(truth.geometry.cellAt(0.0, 0.0, &col, &row));
+  SiteCheck check = checkSite(truth, site, HazardThresholds(), params);
+  EXPECT_TRUE(check.truly_safe);
+  EXPECT_EQ(check.cells_hazard, 0);
+  EXPECT_GT(check.cells_checked, 100);
+  EXPECT_NEAR(check.true_slope_deg, 2.0, 1e-6);
+  EXPECT_TRUE(std::isnan(check.nearest_unsafe_m));
+  // A rock 4 m away: outside the clearance, found as the nearest unsafe cell.
+  truth.layers["roughness_m"].at<float>(row, col + 8) = 0.5f;
+  check = checkSite(truth, site, HazardThresholds(), params);
+  EXPECT_TRUE(check.truly_safe);
+  EXPECT_NEAR(check.nearest_unsafe_m, 4.0, 1e-9);
+  // 2.5 m away: inside. An unknown cell inside is not safe either.
+  truth.layers["roughness_m"].at<float>(row + 5, col) = 0.5f;
+  check = checkSite(truth, site, HazardThresholds(), params);
+  EXPECT_FALSE(check.truly_safe);
+  EXPECT_EQ(check.cells_hazard, 1);
+  truth.layers["roughness_m"].at<float>(row + 5, col) = 0.05f;
+  truth.layers["slope_deg"].at<float>(row - 1, col - 1) = kNaN;
+  check = checkSite(truth, site, HazardThresholds(), params);
+  EXPECT_FALSE(check.truly_safe);
+  EXPECT_EQ(check.cells_unknown, 1);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
