@@ -25,6 +25,7 @@ add_library(planetary_vo_ros STATIC
   ${PROJECT_SOURCE_DIR}/src/ros/conversions.cpp
   ${PROJECT_SOURCE_DIR}/src/ros/player.cpp
   ${PROJECT_SOURCE_DIR}/src/ros/vo_conversions.cpp
+  ${PROJECT_SOURCE_DIR}/src/ros/map_event_conversions.cpp
   ${PROJECT_SOURCE_DIR}/src/ros/ros_params.cpp
   ${PROJECT_SOURCE_DIR}/src/ros/status_reporter.cpp)
 set_target_properties(planetary_vo_ros PROPERTIES POSITION_INDEPENDENT_CODE ON)

@@ -78,6 +78,7 @@ endif()
 # ---------------------------------------------------------------------------------------------------------------
 # VO nodelet tests
 #   ros_test_vo_conversions  gtest, no master: image conversion, input checks, status/odometry/cloud conversions
+#   ros_test_map_event_conversions  gtest, no master: MapEvents <-> VoMapEvents (vo/map_events) round trip, checks
 #   rostests with the gtest nodes
 #     test_vo_node       vo_end_to_end (player node -> nodelet) and vo_bag (rosbag play of a `player --bag` bag):
 #                        Sim(3) ATE bound, map, tf world -> camera, status stream; vo_reconfigure: the same with the
@@ -94,6 +95,11 @@ catkin_add_gtest(ros_test_vo_conversions test/ros/test_vo_conversions.cpp)
 if(TARGET ros_test_vo_conversions)
   target_link_libraries(ros_test_vo_conversions planetary_vo_ros GTest::gtest_main)
   planetary_vo_ros_target(ros_test_vo_conversions)
+endif()
+catkin_add_gtest(ros_test_map_event_conversions test/ros/test_map_event_conversions.cpp)
+if(TARGET ros_test_map_event_conversions)
+  target_link_libraries(ros_test_map_event_conversions planetary_vo_ros GTest::gtest_main)
+  planetary_vo_ros_target(ros_test_map_event_conversions)
 endif()
 
 # A short rendered Lunar descent (256 x 256, 6 s at 10 Hz) and the bag the player writes from it.

@@ -31,11 +31,13 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <boost/make_shared.hpp>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "planetary_vo/VoReconfigureConfig.h"
 #include "planetary_vo/VoStatus.h"
 #include "planetary_vo/ros_io/conversions.h"
+#include "planetary_vo/ros_io/map_event_conversions.h"
 #include "planetary_vo/ros_io/ros_params.h"
 #include "planetary_vo/ros_io/sample_buffer.h"
 #include "planetary_vo/ros_io/status_reporter.h"
@@ -76,6 +78,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     nav_pub_ = nh.advertise<nav_msgs::Odometry>("nav/odometry", 100);
     path_pub_ = nh.advertise<nav_msgs::Path>("vo/path", 1);
     map_pub_ = nh.advertise<sensor_msgs::PointCloud2>("vo/map_points", 1);
+    map_events_pub_ = nh.advertise<VoMapEvents>("vo/map_events", 100);
     tracking_pub_ = it.advertise("vo/tracking_image", 1);
     reset_srv_ = nh.advertiseService("vo/reset", &VisualOdometryNodelet::resetCb, this);
     if (!params_.base_frame.empty()) {
@@ -155,6 +158,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     started_ = true;
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);
     const bool published = result.processed && publishPose(result, header, child);
+    if (result.processed && !result.map_events.empty() && map_events_pub_.getNumSubscribers() > 0)
+      publishMapEvents(result, header, image->header, gray);
     if (result.processed && tracking_pub_.getNumSubscribers() > 0)
       tracking_pub_.publish(drawTracks(gray, pipeline_->tracks(), result, image->header));
     VoStatus status = toVoStatus(result, image->header);
@@ -331,6 +336,18 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     last_pose_time_s_ = result.timestamp_s;
     have_last_pose_ = true;
     return true;
+  }
+
+  /// vo/map_events of a processed frame, as a shared pointer (no copy inside a manager), with the gray image
+  /// given to the pipeline when a keyframe was added. A conversion failure is logged, never thrown.
+  void publishMapEvents(const FrameResult& result, const std_msgs::Header& header,
+                        const std_msgs::Header& image_header, const cv::Mat& gray) {
+    try {
+      map_events_pub_.publish(boost::make_shared<VoMapEvents>(
+          toMsg(result.map_events, result.metric_scale, header, epoch_, &gray, image_header)));
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM_THROTTLE(5, "vo/map_events not published: " << e.what());
+    }
   }
 
   /// nav/odometry of a processed frame (metric modes only), and whether the IMU-rate output may follow it.
@@ -691,6 +708,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   image_transport::Publisher tracking_pub_;
   ros::Subscriber info_sub_, imu_sub_, altimeter_sub_, initial_state_sub_;
   ros::Publisher pose_pub_, odom_pub_, nav_pub_, path_pub_, map_pub_, status_pub_;
+  ros::Publisher map_events_pub_;
   ros::ServiceServer reset_srv_;
   ros::WallTimer watchdog_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;

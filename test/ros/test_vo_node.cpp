@@ -1,5 +1,6 @@
 /// gtest node of the VO end-to-end rostests (vo_end_to_end.test: player node; vo_bag.test: rosbag play of a
-/// bag written by `player --bag`). Collects vo/pose, vo/status, vo/map_points and ground_truth/pose while a
+/// bag written by `player --bag`). Collects vo/pose, vo/status, vo/map_points, vo/map_events (checked with
+/// fromMsg: points added, every keyframe message with its image) and ground_truth/pose while a
 /// rendered Lunar sequence streams through the VO nodelet, then checks the accuracy after Sim(3) alignment,
 /// the map, the tf world -> camera and the status stream.
 ///
@@ -37,10 +38,12 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "planetary_vo/VoMapEvents.h"
 #include "planetary_vo/VoStatus.h"
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/ros_io/conversions.h"
+#include "planetary_vo/ros_io/map_event_conversions.h"
 #include "test_ros_helpers.h"
 
 namespace planetary_vo::ros_io {
@@ -64,6 +67,7 @@ class VoEndToEndTest : public ::testing::Test {
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoEndToEndTest::onPose, this));
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoEndToEndTest::onStatus, this));
     subs_.push_back(nh_.subscribe("vo/map_points", 10, &VoEndToEndTest::onMap, this));
+    subs_.push_back(nh_.subscribe("vo/map_events", 1000, &VoEndToEndTest::onMapEvents, this));
     subs_.push_back(nh_.subscribe("ground_truth/pose", 1000, &VoEndToEndTest::onGroundTruth, this));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
   }
@@ -80,6 +84,26 @@ class VoEndToEndTest : public ::testing::Test {
     std::lock_guard<std::mutex> lock(mutex_);
     max_map_points_ = std::max<size_t>(max_map_points_, m->width * m->height);
     map_fields_ = m->fields.size();
+  }
+  /// vo/map_events: counts, and every message must pass fromMsg's checks.
+  void onMapEvents(const VoMapEventsConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++map_events_.messages;
+    try {
+      cv::Mat image;
+      const MapEvents e = fromMsg(*m, ros::Time(), &image);
+      map_events_.points_added += e.points_added.size();
+      map_events_.keyframes += e.keyframes_added.size();
+      if (!e.keyframes_added.empty()) ++map_events_.keyframe_messages;
+      // The image is the frame's, which added the last keyframe of the message.
+      if (!image.empty() && m->keyframe_image.header.stamp == m->header.stamp &&
+          m->keyframe_stamps.back() == m->header.stamp)
+        ++map_events_.images;
+      if (m->header.frame_id != world_frame_) ++map_events_.bad;
+    } catch (const std::invalid_argument& e) {
+      ++map_events_.bad;
+      ADD_FAILURE() << e.what();
+    }
   }
   void onGroundTruth(const geometry_msgs::PoseStampedConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -163,6 +187,9 @@ class VoEndToEndTest : public ::testing::Test {
   std::vector<geometry_msgs::PoseStamped> poses_, ground_truth_;
   std::vector<VoStatus> statuses_;
   size_t max_map_points_ = 0, map_fields_ = 0;
+  struct {
+    size_t messages = 0, points_added = 0, keyframes = 0, keyframe_messages = 0, images = 0, bad = 0;
+  } map_events_;
 };
 
 TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
@@ -231,6 +258,15 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
   // Map: x y z + observation count, not empty.
   EXPECT_GT(max_map_points_, 0u);
   EXPECT_EQ(map_fields_, 4u);
+
+  // Map events: keyframes with their image, points added, in the world frame, all valid.
+  EXPECT_GT(map_events_.messages, 0u);
+  EXPECT_GT(map_events_.points_added, 0u);
+  EXPECT_GT(map_events_.keyframes, 0u);
+  EXPECT_EQ(map_events_.images, map_events_.keyframe_messages) << "a keyframe came without its image";
+  EXPECT_EQ(map_events_.bad, 0u);
+  std::printf("map events: %zu messages, %zu keyframes (%zu images), %zu points added\n",
+              map_events_.messages, map_events_.keyframes, map_events_.images, map_events_.points_added);
 
   // tf world -> camera at the last pose's stamp equals that pose.
   const geometry_msgs::PoseStamped& last = poses_.back();
