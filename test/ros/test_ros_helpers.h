@@ -11,6 +11,7 @@
 #include <ros/master.h>
 #include <ros/network.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
 #include <gtest/gtest.h>
@@ -81,6 +82,34 @@ inline bool publisherSendsTo(const std::string& publisher, const std::string& to
         std::string(connections[i][2]) == "o" && std::string(connections[i][4]) == topic)
       return true;
   return false;
+}
+
+/// Starts the paused player (service <player>/resume) once the nodelet manager receives every topic of
+/// `inputs` from it and this node every subscription of `subs` from its publisher (the player for
+/// /ground_truth/pose, the manager for the rest), as the publishers see it: whatever a publisher sends before
+/// it has accepted a subscriber is lost for that subscriber.
+inline ::testing::AssertionResult resumePlayerWhenConnected(const std::string& player,
+                                                            const std::string& manager,
+                                                            const std::vector<std::string>& inputs,
+                                                            const std::vector<ros::Subscriber>& subs) {
+  const bool connected = waitFor(
+      [&] {
+        for (const std::string& topic : inputs)
+          if (!publisherSendsTo(player, topic, manager)) return false;
+        for (const ros::Subscriber& s : subs)
+          if (!publisherSendsTo(s.getTopic() == "/ground_truth/pose" ? player : manager, s.getTopic()))
+            return false;
+        return true;
+      },
+      30.0);
+  if (!connected)
+    return ::testing::AssertionFailure()
+           << "the nodelet did not connect to the player, or this node to the outputs";
+  std_srvs::Trigger resume;
+  if (!ros::service::waitForService(player + "/resume", ros::Duration(30.0)) ||
+      !ros::service::call(player + "/resume", resume))
+    return ::testing::AssertionFailure() << "could not call " << player << "/resume";
+  return ::testing::AssertionSuccess();
 }
 
 /// How many messages node `subscriber` has read on `topic` (resolved name) from its one publisher (its

@@ -121,21 +121,9 @@ class VoFusedTest : public ::testing::Test {
 TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
   // Start the paused player once the nodelet has the camera, the IMU, the altimeter and the handover, and
   // this node the outputs (see test_vo_node.cpp: only accepted connections receive what is published).
-  ASSERT_TRUE(waitFor(
-      [&] {
-        for (const char* topic :
-             {"/camera/image_raw", "/camera/camera_info", "/imu", "/altimeter", "/nav/initial_state"})
-          if (!publisherSendsTo(player_, topic, manager_)) return false;
-        for (const ros::Subscriber& s : subs_)
-          if (!publisherSendsTo(s.getTopic() == "/ground_truth/pose" ? player_ : manager_, s.getTopic()))
-            return false;
-        return true;
-      },
-      30.0))
-      << "the nodelet did not connect to the player, or this node to the outputs";
-  std_srvs::Trigger resume;
-  ASSERT_TRUE(ros::service::waitForService("/player/resume", ros::Duration(30.0)));
-  ASSERT_TRUE(ros::service::call("/player/resume", resume));
+  ASSERT_TRUE(resumePlayerWhenConnected(
+      player_, manager_,
+      {"/camera/image_raw", "/camera/camera_info", "/imu", "/altimeter", "/nav/initial_state"}, subs_));
   ASSERT_TRUE(waitFor([&] { return streamDone(); }, timeout_s_))
       << "stream incomplete: " << ground_truth_.size() << " ground-truth poses, " << statuses_.size()
       << " statuses of " << dataset_->size() << " images";

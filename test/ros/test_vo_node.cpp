@@ -197,21 +197,8 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
     // Start the paused player once the nodelet is connected to the camera and this node to the outputs, as
     // the publishers see it: whatever they publish before they have accepted a subscriber is lost for it
     // (see allConnected()), and a lost ground-truth pose would leave the stream incomplete.
-    ASSERT_TRUE(waitFor(
-        [&] {
-          if (!publisherSendsTo(player_, "/camera/image_raw", manager_) ||
-              !publisherSendsTo(player_, "/camera/camera_info", manager_))
-            return false;
-          for (const ros::Subscriber& s : subs_)
-            if (!publisherSendsTo(s.getTopic() == "/ground_truth/pose" ? player_ : manager_, s.getTopic()))
-              return false;
-          return true;
-        },
-        30.0))
-        << "the nodelet did not connect to the player's camera, or this node to the outputs";
-    std_srvs::Trigger resume;
-    ASSERT_TRUE(ros::service::waitForService("/player/resume", ros::Duration(30.0)));
-    ASSERT_TRUE(ros::service::call("/player/resume", resume));
+    ASSERT_TRUE(
+        resumePlayerWhenConnected(player_, manager_, {"/camera/image_raw", "/camera/camera_info"}, subs_));
   }
   ros::Time before_change;
   if (reconfigure_) {

@@ -35,6 +35,22 @@ int usage(const char* why) {
   return 2;
 }
 
+/// The three lines of a score: elevation, slope and roughness, hazards.
+void printScore(const TerrainScore& s, const HazardThresholds& thresholds) {
+  std::printf("  elevation  coverage %.1f %% (%d cells), RMSE %.3f m, mean error %+.3f m\n",
+              100.0 * s.elevation_coverage, s.cells_elevation, s.elevation_rmse_m, s.elevation_mean_error_m);
+  std::printf(
+      "  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg (|error| median %.2f, p90 %.2f, mean "
+      "error %+.2f), roughness RMSE %.3f m (mean error %+.3f)\n",
+      100.0 * s.surface_coverage, s.cells_surface, s.slope_rmse_deg, s.slope_error_median_deg,
+      s.slope_error_p90_deg, s.slope_mean_error_deg, s.roughness_rmse_m, s.roughness_mean_error_m);
+  std::printf(
+      "  hazards (slope > %.1f deg or roughness > %.2f m): precision %.3f, recall %.3f (tp %d, fp %d, fn %d, "
+      "tn %d)\n",
+      thresholds.max_slope_deg, thresholds.max_roughness_m, s.hazard_precision, s.hazard_recall, s.hazard_tp,
+      s.hazard_fp, s.hazard_fn, s.hazard_tn);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -90,33 +106,11 @@ int main(int argc, char** argv) {
     }
     std::printf("terrain: %d x %d cells of %.2f m (%d cells)\n", truth.geometry.cols, truth.geometry.rows,
                 truth.geometry.cell_size_m, s.cells);
-    std::printf("  elevation  coverage %.1f %% (%d cells), RMSE %.3f m, mean error %+.3f m\n",
-                100.0 * s.elevation_coverage, s.cells_elevation, s.elevation_rmse_m,
-                s.elevation_mean_error_m);
-    std::printf(
-        "  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg (|error| median %.2f, p90 %.2f, mean "
-        "error %+.2f), roughness RMSE %.3f m (mean error %+.3f)\n",
-        100.0 * s.surface_coverage, s.cells_surface, s.slope_rmse_deg, s.slope_error_median_deg,
-        s.slope_error_p90_deg, s.slope_mean_error_deg, s.roughness_rmse_m, s.roughness_mean_error_m);
-    std::printf(
-        "  hazards (slope > %.1f deg or roughness > %.2f m): precision %.3f, recall %.3f "
-        "(tp %d, fp %d, fn %d, tn %d)\n",
-        thresholds.max_slope_deg, thresholds.max_roughness_m, s.hazard_precision, s.hazard_recall,
-        s.hazard_tp, s.hazard_fp, s.hazard_fn, s.hazard_tn);
+    printScore(s, thresholds);
     if (at_support) {
-      const TerrainScore& r = *at_support;
       std::printf("at the map's resolution (the truth seen through its %.1f m plane-fit support):\n",
                   support_m);
-      std::printf("  elevation  coverage %.1f %% (%d cells), RMSE %.3f m, mean error %+.3f m\n",
-                  100.0 * r.elevation_coverage, r.cells_elevation, r.elevation_rmse_m,
-                  r.elevation_mean_error_m);
-      std::printf(
-          "  surface    coverage %.1f %% (%d cells), slope RMSE %.2f deg (|error| median %.2f, p90 %.2f, "
-          "mean error %+.2f), roughness RMSE %.3f m (mean error %+.3f)\n",
-          100.0 * r.surface_coverage, r.cells_surface, r.slope_rmse_deg, r.slope_error_median_deg,
-          r.slope_error_p90_deg, r.slope_mean_error_deg, r.roughness_rmse_m, r.roughness_mean_error_m);
-      std::printf("  hazards: precision %.3f, recall %.3f (tp %d, fp %d, fn %d, tn %d)\n", r.hazard_precision,
-                  r.hazard_recall, r.hazard_tp, r.hazard_fp, r.hazard_fn, r.hazard_tn);
+      printScore(*at_support, thresholds);
     }
     // The landing site the map would choose, and whether the truth agrees.
     const LandingSiteResult chosen = findLandingSites(estimate, thresholds, site_params);

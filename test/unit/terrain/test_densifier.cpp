@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "octave_texture.h"
 #include "planetary_vo/terrain/densifier.h"
 #include "planetary_vo/terrain/terrain_map.h"
 
@@ -23,21 +24,7 @@ constexpr double kTextureMPerPx = 0.125;
 constexpr int kTexturePx = 2048;  // 256 m of ground
 
 /// Smooth multi-octave noise: features from 1 m to 32 m.
-cv::Mat texture() {
-  cv::RNG rng(99);
-  cv::Mat acc = cv::Mat::zeros(kTexturePx, kTexturePx, CV_32F);
-  double weight = 1.0;
-  for (int cells = 8; cells <= 256; cells *= 2, weight *= 0.85) {
-    cv::Mat coarse(cells, cells, CV_32F), fine;
-    rng.fill(coarse, cv::RNG::UNIFORM, 0.0, 1.0);
-    cv::resize(coarse, fine, acc.size(), 0, 0, cv::INTER_CUBIC);
-    acc += weight * fine;
-  }
-  cv::normalize(acc, acc, 20, 235, cv::NORM_MINMAX);
-  cv::Mat out;
-  acc.convertTo(out, CV_8U);
-  return out;
-}
+cv::Mat texture() { return test::octaveNoiseTexture(kTexturePx, 99, 8, 256, 0.85); }
 
 /// The plane through the origin rising along +x at kTiltDeg: world = u e1 + v e2.
 const Eigen::Vector3d kE1(std::cos(kTiltDeg* M_PI / 180.0), 0.0, std::sin(kTiltDeg* M_PI / 180.0));

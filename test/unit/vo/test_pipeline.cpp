@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "planar_descent.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/fusion/imu_preintegration.h"
 #include "planetary_vo/vo/pipeline.h"
@@ -24,63 +25,11 @@
 namespace planetary_vo {
 namespace {
 
-constexpr int kWidth = 320, kHeight = 240;
+using test::groundTexture;
+using test::renderView;
+using test::truePose;
+constexpr int kWidth = test::kPlanarWidth, kHeight = test::kPlanarHeight;
 constexpr double kRateHz = 10.0;
-constexpr int kTextureSizePx = 2048;  // 1 m per texture pixel, centred on the world origin
-
-/// Ground texture: octaves of smooth noise, from 8 m to 256 m features, contrast-normalised.
-cv::Mat groundTexture() {
-  cv::RNG rng(12345);
-  cv::Mat acc = cv::Mat::zeros(kTextureSizePx, kTextureSizePx, CV_32F);
-  double weight = 1.0;
-  for (int cells = 8; cells <= 256; cells *= 2, weight *= 0.8) {
-    cv::Mat coarse(cells, cells, CV_32F), fine;
-    rng.fill(coarse, cv::RNG::UNIFORM, 0.0, 1.0);
-    cv::resize(coarse, fine, acc.size(), 0, 0, cv::INTER_CUBIC);
-    acc += weight * fine;
-  }
-  cv::Mat out;
-  cv::normalize(acc, acc, 20, 235, cv::NORM_MINMAX);
-  acc.convertTo(out, CV_8U);
-  return out;
-}
-
-/// Nadir camera (REP-103 optical frame: x right = world x, y down = world -y, z forward = world -z) over the
-/// plane z = 0, flying along +x on a curve (so that the Sim(3) alignment is well posed), descending, with a
-/// gentle yaw and pitch oscillation.
-Pose truePose(double t) {
-  Eigen::Matrix3d R_nadir;
-  R_nadir.col(0) = Eigen::Vector3d::UnitX();
-  R_nadir.col(1) = -Eigen::Vector3d::UnitY();
-  R_nadir.col(2) = -Eigen::Vector3d::UnitZ();
-  const double yaw = 3.0 * M_PI / 180.0 * std::sin(0.5 * t);
-  const double pitch = 1.5 * M_PI / 180.0 * std::sin(0.7 * t);
-  Pose T = Pose::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-               Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()).toRotationMatrix() * R_nadir;
-  T.translation() = Eigen::Vector3d(-90.0 + 30.0 * t, 4.0 * t + 1.5 * t * t, 500.0 - 6.0 * t - 0.8 * t * t);
-  return T;
-}
-
-/// The image of the textured plane seen from T_world_cam: texture pixel -> world (x, y, 0) -> camera ->
-/// pixel.
-cv::Mat renderView(const cv::Mat& texture, const PinholeCamera& camera, const Pose& T_world_cam) {
-  const Pose T_cam_world = T_world_cam.inverse();
-  Eigen::Matrix3d Rt;
-  Rt.col(0) = T_cam_world.linear().col(0);
-  Rt.col(1) = T_cam_world.linear().col(1);
-  Rt.col(2) = T_cam_world.translation();
-  Eigen::Matrix3d world_from_texture;
-  const double half = kTextureSizePx / 2.0;
-  world_from_texture << 1, 0, -half, 0, -1, half, 0, 0, 1;
-  const Eigen::Matrix3d H = camera.K() * Rt * world_from_texture;
-  cv::Mat Hcv(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = H(r, c);
-  cv::Mat image;
-  cv::warpPerspective(texture, image, Hcv, cv::Size(kWidth, kHeight), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  return image;
-}
 
 struct SequenceRun {
   std::vector<FrameResult> results;
@@ -114,12 +63,12 @@ ImuSample imuReading(double t, cv::RNG* rng) {
   const double gyro_sigma = 4.4e-5 * std::sqrt(kImuRateHz), accel_sigma = 1e-3 * std::sqrt(kImuRateHz);
   ImuSample s;
   s.timestamp_s = t;
-  s.angular_velocity_radps = logSO3(R_prev.transpose() * R_next) / (2.0 * h) + kGyroBias +
-                             Eigen::Vector3d(rng->gaussian(gyro_sigma), rng->gaussian(gyro_sigma),
-                                             rng->gaussian(gyro_sigma));
-  s.specific_force_mps2 = R.transpose() * (kTrueAcceleration - kLunarGravityWorldMps2) + kAccelBias +
-                          Eigen::Vector3d(rng->gaussian(accel_sigma), rng->gaussian(accel_sigma),
-                                          rng->gaussian(accel_sigma));
+  s.angular_velocity_radps =
+      logSO3(R_prev.transpose() * R_next) / (2.0 * h) + kGyroBias +
+      Eigen::Vector3d(rng->gaussian(gyro_sigma), rng->gaussian(gyro_sigma), rng->gaussian(gyro_sigma));
+  s.specific_force_mps2 =
+      R.transpose() * (kTrueAcceleration - kLunarGravityWorldMps2) + kAccelBias +
+      Eigen::Vector3d(rng->gaussian(accel_sigma), rng->gaussian(accel_sigma), rng->gaussian(accel_sigma));
   return s;
 }
 
@@ -131,7 +80,7 @@ SequenceRun runSequence(const VoConfig& config, int num_frames, int blackout_beg
                         bool hand_over_velocity = true, double imu_gap_begin_s = -1.0,
                         double imu_gap_end_s = -1.0) {
   static const cv::Mat texture = groundTexture();
-  const PinholeCamera camera = PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0);
+  const PinholeCamera camera = test::planarDescentCamera();
   Pipeline pipeline(config, camera);
   if (imu && hand_over_velocity)
     pipeline.setInitialState(truePose(0.0), trueVelocity(0.0));
@@ -312,7 +261,7 @@ TEST(Pipeline, UnitStepChainConcatenatesUnitHomographySteps) {
 TEST(Pipeline, HoverInventsNoMotion) {
   // The same view over and over (a hover): there is no parallax, so there must be no map and no motion.
   static const cv::Mat texture = groundTexture();
-  const PinholeCamera camera = PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0);
+  const PinholeCamera camera = test::planarDescentCamera();
   const cv::Mat image = renderView(texture, camera, truePose(0.0));
   for (TrajectoryMode mode : {TrajectoryMode::kMap, TrajectoryMode::kUnitStepConcatenation}) {
     VoConfig config;
@@ -378,7 +327,7 @@ TEST(Pipeline, RecoversFromABlackoutWithoutJumping) {
 }
 
 TEST(Pipeline, RejectsWrongImagesAndResets) {
-  const PinholeCamera camera = PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0);
+  const PinholeCamera camera = test::planarDescentCamera();
   Pipeline pipeline(VoConfig(), camera);
   EXPECT_THROW(pipeline.process(0.0, cv::Mat()), std::invalid_argument);
   EXPECT_THROW(pipeline.process(0.0, cv::Mat::zeros(kHeight, kWidth, CV_8UC3)), std::invalid_argument);
@@ -497,10 +446,10 @@ TEST(Pipeline, ImuGivesMetricPositionAndVelocityInTheHandedOverFrame) {
 }
 
 // Camera + IMU without a handed-over velocity: the pipeline tries the visual-inertial alignment
-// (inertial_initializer.h) at every keyframe and, while the scale is not yet observable to 1 % (here: 320x240 px
-// at 500 m, 1.6 m per pixel, a constant braking acceleration, 10 s), stays up to scale and says why; without
-// the attitude either, a constant acceleration cannot be told from gravity. (The alignment itself is tested in
-// test_inertial_initializer.cpp; on the 1024 px flight render of approach_down it aligns at 34.8 s,
+// (inertial_initializer.h) at every keyframe and, while the scale is not yet observable to 1 % (here: 320x240
+// px at 500 m, 1.6 m per pixel, a constant braking acceleration, 10 s), stays up to scale and says why;
+// without the attitude either, a constant acceleration cannot be told from gravity. (The alignment itself is
+// tested in test_inertial_initializer.cpp; on the 1024 px flight render of approach_down it aligns at 34.8 s,
 // docs/fusion/README.md.)
 TEST(Pipeline, VisualInertialAlignmentWaitsForAnObservableScale) {
   VoConfig config;
@@ -524,9 +473,10 @@ TEST(Pipeline, VisualInertialAlignmentWaitsForAnObservableScale) {
   }
 }
 
-// An IMU gap (0.5 s, ten times imu.max_gap_s) breaks the inertial chain: the keyframes across it are not tied,
-// the status says so, and the chain restarts by itself (alignment over the keyframes after the gap, with the
-// gravity direction and the scale already known) instead of staying vision-only for the rest of the descent.
+// An IMU gap (0.5 s, ten times imu.max_gap_s) breaks the inertial chain: the keyframes across it are not
+// tied, the status says so, and the chain restarts by itself (alignment over the keyframes after the gap,
+// with the gravity direction and the scale already known) instead of staying vision-only for the rest of the
+// descent.
 TEST(Pipeline, ImuGapBreaksTheChainWhichRestartsByItself) {
   VoConfig config;
   config.imu.enabled = true;
@@ -538,9 +488,10 @@ TEST(Pipeline, ImuGapBreaksTheChainWhichRestartsByItself) {
       restarted_at = static_cast<int>(r.frame_index);
   }
   const MetricErrors e = metricErrors(run);
-  std::cout << "IMU gap 3.0-3.5 s: " << broken_after_gap << " frames without IMU factors after it, restarted at frame "
-            << restarted_at << "; final position error " << e.final_position_m << " m, velocity "
-            << e.final_velocity_mps << " m/s\n";
+  std::cout << "IMU gap 3.0-3.5 s: " << broken_after_gap
+            << " frames without IMU factors after it, restarted at frame " << restarted_at
+            << "; final position error " << e.final_position_m << " m, velocity " << e.final_velocity_mps
+            << " m/s\n";
   EXPECT_GT(broken_after_gap, 0);
   EXPECT_GT(restarted_at, 35);
   EXPECT_TRUE(run.results.back().inertial);
@@ -552,7 +503,7 @@ TEST(Pipeline, ImuGapBreaksTheChainWhichRestartsByItself) {
 TEST(Pipeline, RejectsBadImuSamples) {
   VoConfig config;
   config.imu.enabled = true;
-  Pipeline pipeline(config, PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0));
+  Pipeline pipeline(config, test::planarDescentCamera());
   ImuSample s;
   s.timestamp_s = 1.0;
   pipeline.addImu(s);
@@ -570,7 +521,7 @@ TEST(Pipeline, RejectsBadImuSamples) {
 TEST(Pipeline, RejectsBadAltimeterReadingsAndLateInitialPoses) {
   VoConfig config;
   config.altimeter.enabled = true;
-  Pipeline pipeline(config, PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0));
+  Pipeline pipeline(config, test::planarDescentCamera());
   pipeline.addAltimeter({1.0, 500.0});
   EXPECT_THROW(pipeline.addAltimeter({0.5, 500.0}), std::invalid_argument);  // older than the last
   EXPECT_THROW(pipeline.addAltimeter({2.0, std::nan("")}), std::invalid_argument);

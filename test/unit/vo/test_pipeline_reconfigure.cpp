@@ -19,70 +19,19 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "planar_descent.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/vo/pipeline.h"
 
 namespace planetary_vo {
 namespace {
 
-constexpr int kWidth = 320, kHeight = 240;
+using test::groundTexture;
+using test::renderView;
+using test::truePose;
 constexpr double kRateHz = 10.0;
-constexpr int kTextureSizePx = 2048;  // 1 m per texture pixel, centred on the world origin
 
-/// Ground texture: octaves of smooth noise, from 8 m to 256 m features, contrast-normalised (as
-/// test_pipeline.cpp).
-cv::Mat groundTexture() {
-  cv::RNG rng(12345);
-  cv::Mat acc = cv::Mat::zeros(kTextureSizePx, kTextureSizePx, CV_32F);
-  double weight = 1.0;
-  for (int cells = 8; cells <= 256; cells *= 2, weight *= 0.8) {
-    cv::Mat coarse(cells, cells, CV_32F), fine;
-    rng.fill(coarse, cv::RNG::UNIFORM, 0.0, 1.0);
-    cv::resize(coarse, fine, acc.size(), 0, 0, cv::INTER_CUBIC);
-    acc += weight * fine;
-  }
-  cv::Mat out;
-  cv::normalize(acc, acc, 20, 235, cv::NORM_MINMAX);
-  acc.convertTo(out, CV_8U);
-  return out;
-}
-
-/// Nadir camera over the plane z = 0 flying along +x on a descending curve with a gentle yaw and pitch
-/// oscillation (as test_pipeline.cpp). World frame: z up; optical frame: REP-103.
-Pose truePose(double t) {
-  Eigen::Matrix3d R_nadir;
-  R_nadir.col(0) = Eigen::Vector3d::UnitX();
-  R_nadir.col(1) = -Eigen::Vector3d::UnitY();
-  R_nadir.col(2) = -Eigen::Vector3d::UnitZ();
-  const double yaw = 3.0 * M_PI / 180.0 * std::sin(0.5 * t);
-  const double pitch = 1.5 * M_PI / 180.0 * std::sin(0.7 * t);
-  Pose T = Pose::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-               Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()).toRotationMatrix() * R_nadir;
-  T.translation() = Eigen::Vector3d(-90.0 + 30.0 * t, 4.0 * t + 1.5 * t * t, 500.0 - 6.0 * t - 0.8 * t * t);
-  return T;
-}
-
-/// The image of the textured plane seen from T_world_cam (exact plane-induced homography).
-cv::Mat renderView(const cv::Mat& texture, const PinholeCamera& camera, const Pose& T_world_cam) {
-  const Pose T_cam_world = T_world_cam.inverse();
-  Eigen::Matrix3d Rt;
-  Rt.col(0) = T_cam_world.linear().col(0);
-  Rt.col(1) = T_cam_world.linear().col(1);
-  Rt.col(2) = T_cam_world.translation();
-  Eigen::Matrix3d world_from_texture;
-  const double half = kTextureSizePx / 2.0;
-  world_from_texture << 1, 0, -half, 0, -1, half, 0, 0, 1;
-  const Eigen::Matrix3d H = camera.K() * Rt * world_from_texture;
-  cv::Mat Hcv(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = H(r, c);
-  cv::Mat image;
-  cv::warpPerspective(texture, image, Hcv, cv::Size(kWidth, kHeight), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  return image;
-}
-
-PinholeCamera testCamera() { return PinholeCamera::fromFieldOfView(kWidth, kHeight, 60.0); }
+PinholeCamera testCamera() { return test::planarDescentCamera(); }
 
 /// A configuration change given to the pipeline just before frame `frame` is processed.
 struct Change {
@@ -270,7 +219,8 @@ TEST(PipelineReconfigure, NewSettingsReachTheStages) {
     const FrameResult r = pipeline.process(0.0, renderView(texture, camera, truePose(0.0)));
     EXPECT_LE(r.num_new_features, budget);
     // 64: at least half of it; 600: more than the default 300 allows (the 320x240 image has ~370 corners).
-    EXPECT_GT(r.num_new_features, budget == 64 ? 32 : VoConfig().detector.num_features) << "budget " << budget;
+    EXPECT_GT(r.num_new_features, budget == 64 ? 32 : VoConfig().detector.num_features)
+        << "budget " << budget;
   }
   // motion.model: the two-view model of the initialisation.
   for (MotionModel model : {MotionModel::kEssential, MotionModel::kHomography}) {
