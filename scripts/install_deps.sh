@@ -16,7 +16,7 @@ PACKAGES=(
   libimage-transport-dev libcv-bridge-dev libtf2-ros-dev libtf2-geometry-msgs-dev
   libimage-geometry-dev libdiagnostic-updater-dev libdynamic-reconfigure-config-init-mutex-dev
   python3-dynamic-reconfigure
-  libstd-srvs-dev python3-std-srvs
+  libstd-srvs-dev python3-std-srvs libvisualization-msgs-dev
   python3-nav-msgs python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs python3-std-msgs
   catkin-lint
   # core library dependencies

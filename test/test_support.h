@@ -26,6 +26,18 @@ inline ::testing::AssertionResult requireDataFile(const std::string& path) {
                                           "or PLANETARY_VO_DATA must point to it)";
 }
 
+/// The repository root (with a trailing '/'), from this header's absolute path (CMake compiles by absolute
+/// path).
+inline std::string sourceRoot() {
+  const std::string file = __FILE__;
+  const std::string suffix = "test/test_support.h";
+  if (file.size() < suffix.size() || file.substr(file.size() - suffix.size()) != suffix) {
+    ADD_FAILURE() << "test_support.h compiled from an unexpected path: " << file;
+    return "./";
+  }
+  return file.substr(0, file.size() - suffix.size());
+}
+
 /// A fresh folder for files a test writes, under the build tree: <build>/test_output/<name>.
 inline std::string outputDir(const std::string& name) {
   const std::string dir = std::string(PLANETARY_VO_TEST_OUTPUT_DIR) + "/" + name;

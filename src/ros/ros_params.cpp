@@ -3,7 +3,9 @@
 
 #include "planetary_vo/ros_io/ros_params.h"
 
+#include <cmath>
 #include <iomanip>
+#include <iterator>
 #include <sstream>
 
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -51,9 +53,9 @@ std::string scalarYaml(XmlRpc::XmlRpcValue& v) {
 
 }  // namespace
 
-std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
+std::string yamlFromParams(const ros::NodeHandle& private_nh, const std::vector<std::string>& sections) {
   std::ostringstream yaml;
-  for (const char* section : kVoConfigSections) {
+  for (const std::string& section : sections) {
     XmlRpc::XmlRpcValue values;
     if (!private_nh.getParam(section, values)) continue;
     if (values.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
@@ -64,6 +66,36 @@ std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
     for (auto& entry : values) yaml << "  " << entry.first << ": " << scalarYaml(entry.second) << "\n";
   }
   return yaml.str();
+}
+
+std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
+  return yamlFromParams(private_nh, std::vector<std::string>(std::begin(kVoConfigSections), std::end(kVoConfigSections)));
+}
+
+const std::vector<std::string>& hazardConfigSections() {
+  static const std::vector<std::string> sections = {"area", "map", "densifier", "thresholds", "sites"};
+  return sections;
+}
+
+terrain::HazardMapperConfig loadHazardConfigFromParams(const ros::NodeHandle& private_nh) {
+  try {
+    return terrain::parseHazardMapperConfig(yamlFromParams(private_nh, hazardConfigSections()));
+  } catch (const terrain::HazardConfigError& e) {
+    std::vector<std::string> problems;
+    for (const std::string& p : e.problems()) problems.push_back(private_nh.getNamespace() + "/" + p);
+    throw terrain::HazardConfigError(problems);
+  }
+}
+
+HazardNodeletParams loadHazardNodeletParams(const ros::NodeHandle& nh) {
+  HazardNodeletParams p;
+  nh.param("publish_period_s", p.publish_period_s, p.publish_period_s);
+  nh.param("cloud_stride", p.cloud_stride, p.cloud_stride);
+  nh.param("events_queue_size", p.events_queue_size, p.events_queue_size);
+  if (!(p.publish_period_s > 0.0) || !std::isfinite(p.publish_period_s)) p.publish_period_s = HazardNodeletParams().publish_period_s;
+  if (p.cloud_stride < 1) p.cloud_stride = 1;
+  if (p.events_queue_size < 1) p.events_queue_size = 1;
+  return p;
 }
 
 VoConfig loadVoConfigFromParams(const ros::NodeHandle& private_nh) {

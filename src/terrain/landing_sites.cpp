@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "planetary_vo/terrain/surface_analysis.h"
 
@@ -234,6 +238,97 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
     result.sites.push_back(s);
   }
   return result;
+}
+
+namespace {
+
+/// Doubles to 17 digits (read back exactly); NaN as .nan.
+std::string num(double v) {
+  if (std::isnan(v)) return ".nan";
+  std::ostringstream os;
+  os << std::setprecision(17) << v;
+  return os.str();
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c == '\n' ? ' ' : c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+void writeLandingSites(const std::string& path, const LandingSiteResult& result, const LandingSiteParams& p) {
+  std::ofstream out(path);
+  out << "# Landing sites chosen on an estimated hazard map (terrain/landing_sites.h), best first; world frame "
+         "of the map, metres\n"
+      << "params:\n"
+      << "  target_x_m: " << num(p.target_x_m) << "\n  target_y_m: " << num(p.target_y_m)
+      << "\n  max_distance_from_target_m: " << num(p.max_distance_from_target_m)
+      << "\n  max_sites: " << p.max_sites << "\n  min_separation_m: " << num(p.min_separation_m)
+      << "\n  confidence_k: " << num(p.confidence_k) << "\n  min_clearance_m: " << num(p.min_clearance_m)
+      << "\n  distance_weight: " << num(p.distance_weight) << "\n"
+      << "reason: " << quoted(result.reason) << "\n"
+      << "uncertainty_applied: " << (result.uncertainty_applied ? "true" : "false") << "\n"
+      << "cells_in_reach: " << result.cells_in_reach << "\ncells_known: " << result.cells_known
+      << "\ncells_safe: " << result.cells_safe << "\ncells_qualifying: " << result.cells_qualifying << "\n"
+      << "sites:" << (result.sites.empty() ? " []\n" : "\n");
+  for (const LandingSite& s : result.sites)
+    out << "  - {col: " << s.col << ", row: " << s.row << ", x_m: " << num(s.x_m) << ", y_m: " << num(s.y_m)
+        << ", elevation_m: " << num(s.elevation_m) << ", slope_deg: " << num(s.slope_deg)
+        << ", roughness_m: " << num(s.roughness_m) << ", slope_sigma_deg: " << num(s.slope_sigma_deg)
+        << ", roughness_sigma_m: " << num(s.roughness_sigma_m) << ", slope_margin_deg: " << num(s.slope_margin_deg)
+        << ", roughness_margin_m: " << num(s.roughness_margin_m) << ", clearance_m: " << num(s.clearance_m)
+        << ", distance_to_target_m: " << num(s.distance_to_target_m) << ", score: " << num(s.score) << "}\n";
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+LandingSiteResult readLandingSites(const std::string& path, LandingSiteParams* params) {
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    LandingSiteResult r;
+    if (params != nullptr) {
+      const YAML::Node p = root["params"];
+      params->target_x_m = p["target_x_m"].as<double>();
+      params->target_y_m = p["target_y_m"].as<double>();
+      params->max_distance_from_target_m = p["max_distance_from_target_m"].as<double>();
+      params->max_sites = p["max_sites"].as<int>();
+      params->min_separation_m = p["min_separation_m"].as<double>();
+      params->confidence_k = p["confidence_k"].as<double>();
+      params->min_clearance_m = p["min_clearance_m"].as<double>();
+      params->distance_weight = p["distance_weight"].as<double>();
+    }
+    r.reason = root["reason"].as<std::string>();
+    r.uncertainty_applied = root["uncertainty_applied"].as<bool>();
+    r.cells_in_reach = root["cells_in_reach"].as<int>();
+    r.cells_known = root["cells_known"].as<int>();
+    r.cells_safe = root["cells_safe"].as<int>();
+    r.cells_qualifying = root["cells_qualifying"].as<int>();
+    for (const YAML::Node& n : root["sites"]) {
+      LandingSite s;
+      s.col = n["col"].as<int>();
+      s.row = n["row"].as<int>();
+      s.x_m = n["x_m"].as<double>();
+      s.y_m = n["y_m"].as<double>();
+      s.elevation_m = n["elevation_m"].as<double>();
+      s.slope_deg = n["slope_deg"].as<double>();
+      s.roughness_m = n["roughness_m"].as<double>();
+      s.slope_sigma_deg = n["slope_sigma_deg"].as<double>();
+      s.roughness_sigma_m = n["roughness_sigma_m"].as<double>();
+      s.slope_margin_deg = n["slope_margin_deg"].as<double>();
+      s.roughness_margin_m = n["roughness_margin_m"].as<double>();
+      s.clearance_m = n["clearance_m"].as<double>();
+      s.distance_to_target_m = n["distance_to_target_m"].as<double>();
+      s.score = n["score"].as<double>();
+      r.sites.push_back(s);
+    }
+    return r;
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": not a landing-sites file: " + e.what());
+  }
 }
 
 }  // namespace planetary_vo::terrain

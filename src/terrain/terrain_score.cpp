@@ -110,7 +110,7 @@ SiteCheck checkSite(const GridSet& truth, const LandingSite& site, const HazardT
       const double d = std::hypot(dc * g.cell_size_m, dr * g.cell_size_m);
       if (d > 3.0 * clearance) continue;
       const int c = col + dc, r = row + dr;
-      const uint8_t h = (inside && g.contains(c, r)) ? hazard.at<uint8_t>(r, c) : kUnknown;
+      const uint8_t h = (inside && g.contains(c, r)) ? hazard.at<uint8_t>(r, c) : uint8_t{kUnknown};
       if (h != kSafe && !(d >= check.nearest_unsafe_m)) check.nearest_unsafe_m = d;
       if (d > clearance) continue;
       ++check.cells_checked;

@@ -10,9 +10,11 @@
 /// "unknown key" errors.
 
 #include <string>
+#include <vector>
 
 #include <ros/node_handle.h>
 
+#include "planetary_vo/terrain/hazard_mapper.h"
 #include "planetary_vo/vo/config.h"
 
 namespace planetary_vo::ros_io {
@@ -58,5 +60,26 @@ struct NodeletParams {
   int altimeter_queue_size = 100;  ///< ~altimeter_queue_size
 };
 NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh);
+
+/// The YAML text of the given sections of the private namespace (scalars only; a list or map value is
+/// written so that the core loader names the key as of the wrong type).
+std::string yamlFromParams(const ros::NodeHandle& private_nh, const std::vector<std::string>& sections);
+
+/// Sections of HazardMapperConfig (config/hazard.yaml) under the hazard nodelet's private namespace.
+const std::vector<std::string>& hazardConfigSections();
+/// @brief ~area/..., ~map/..., ~densifier/..., ~thresholds/..., ~sites/... -> the hazard mapper's config, by
+/// the core loader (one set of defaults: config/hazard.yaml).
+/// @throws terrain::HazardConfigError naming every unknown or invalid key (with the namespace).
+terrain::HazardMapperConfig loadHazardConfigFromParams(const ros::NodeHandle& private_nh);
+
+/// Settings of the hazard nodelet itself. Defaults are stated here once.
+struct HazardNodeletParams {
+  /// ~publish_period_s: the products are recomputed and published at most this often (wall clock), when
+  /// the map changed; hazard/status at this period. Must be > 0.
+  double publish_period_s = 2.0;
+  int cloud_stride = 2;         ///< ~cloud_stride: every n-th cell in hazard/elevation_cloud (rviz)
+  int events_queue_size = 100;  ///< ~events_queue_size: vo/map_events subscriber queue (messages)
+};
+HazardNodeletParams loadHazardNodeletParams(const ros::NodeHandle& private_nh);
 
 }  // namespace planetary_vo::ros_io

@@ -109,4 +109,12 @@ double slopeSigmaPerElevationSigma(double cell_size_m, double footprint_diameter
 LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds& thresholds,
                                    const LandingSiteParams& params = LandingSiteParams());
 
+/// The sites a run chose and the parameters they were chosen with, as a YAML file (`landing_sites.yaml` beside
+/// a run's terrain.yaml: vo_run --output-terrain, hazard_recorder), what terrain_eval checks against the truth.
+/// Throws std::runtime_error when the file cannot be written.
+void writeLandingSites(const std::string& path, const LandingSiteResult& result, const LandingSiteParams& params);
+/// Reads what writeLandingSites wrote (result.sites, reason, cell counts; params). Throws std::runtime_error on
+/// a missing or malformed file.
+LandingSiteResult readLandingSites(const std::string& path, LandingSiteParams* params);
+
 }  // namespace planetary_vo::terrain

@@ -8,9 +8,12 @@
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
 /// support (parameter support_radius_m), against the truth seen at that resolution (terrain/resolution.h);
-/// then the landing site the estimated map chooses near the target (terrain/landing_sites.h, default
-/// parameters) and whether it is truly safe (checkSite). Exit 0 when scored, 2 on bad arguments or files.
+/// then the landing site the run chose (DIR/landing_sites.yaml, written by vo_run --output-terrain and by
+/// hazard_recorder from the hazard nodelet) or, when the file is absent or a site option is given, the one
+/// the estimated map gives here (terrain/landing_sites.h; defaults but for the options), and whether it is
+/// truly safe (checkSite). Exit 0 when scored, 2 on bad arguments or files.
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -57,6 +60,7 @@ int main(int argc, char** argv) {
   std::string gt_dir, est_dir, est_name = "terrain", json_path;
   HazardThresholds thresholds;
   LandingSiteParams site_params;
+  bool choose_here = false;  // a site option given: choose on the map here rather than read the run's choice
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (i + 1 >= argc) return usage(("missing value after " + arg).c_str());
@@ -75,13 +79,13 @@ int main(int argc, char** argv) {
       else if (arg == "--max-roughness-m")
         thresholds.max_roughness_m = std::stod(value);
       else if (arg == "--target-x-m")
-        site_params.target_x_m = std::stod(value);
+        site_params.target_x_m = std::stod(value), choose_here = true;
       else if (arg == "--target-y-m")
-        site_params.target_y_m = std::stod(value);
+        site_params.target_y_m = std::stod(value), choose_here = true;
       else if (arg == "--max-divert-m")
-        site_params.max_distance_from_target_m = std::stod(value);
+        site_params.max_distance_from_target_m = std::stod(value), choose_here = true;
       else if (arg == "--confidence-k")
-        site_params.confidence_k = std::stod(value);
+        site_params.confidence_k = std::stod(value), choose_here = true;
       else
         return usage(("unknown option " + arg).c_str());
     } catch (const std::exception&) {
@@ -112,8 +116,16 @@ int main(int argc, char** argv) {
                   support_m);
       printScore(*at_support, thresholds);
     }
-    // The landing site the map would choose, and whether the truth agrees.
-    const LandingSiteResult chosen = findLandingSites(estimate, thresholds, site_params);
+    // The landing site the run chose (DIR/landing_sites.yaml, vo_run or hazard_recorder), else the one the map
+    // would choose with the parameters given here, and whether the truth agrees.
+    const std::string sites_file = est_dir + "/landing_sites.yaml";
+    const bool from_run = !choose_here && std::ifstream(sites_file).good();
+    const LandingSiteResult chosen = from_run ? readLandingSites(sites_file, &site_params)
+                                              : findLandingSites(estimate, thresholds, site_params);
+    std::printf("landing site chosen %s (confidence k = %.1f, clearance %.1f m):\n",
+                from_run ? ("by the run, " + sites_file).c_str() : "here on the estimated map",
+                site_params.confidence_k, site_params.min_clearance_m);
+    std::optional<SiteCheck> site_check;
     if (chosen.sites.empty()) {
       std::printf("landing site: none within %.0f m of (%.1f, %.1f): %s\n",
                   site_params.max_distance_from_target_m, site_params.target_x_m, site_params.target_y_m,
@@ -121,6 +133,7 @@ int main(int argc, char** argv) {
     } else {
       const LandingSite& best = chosen.sites.front();
       const SiteCheck check = checkSite(truth, best, thresholds, site_params);
+      site_check = check;
       std::printf(
           "landing site: (%.1f, %.1f) m, %.1f m from the target, estimated slope %.1f deg, roughness "
           "%.2f m, clearance %.1f m; truth: slope %.1f deg, roughness %.2f m, %s (%d hazardous and %d "
@@ -133,6 +146,19 @@ int main(int argc, char** argv) {
       std::ofstream out(json_path);
       out << "{\"full_resolution\": " << toJson(s);
       if (at_support) out << ", \"at_map_resolution\": " << toJson(*at_support);
+      if (site_check) {
+        const LandingSite& best = chosen.sites.front();
+        auto num = [](double v) { return std::isfinite(v) ? std::to_string(v) : std::string("null"); };
+        out << ", \"landing_site\": {\"x_m\": " << num(best.x_m) << ", \"y_m\": " << num(best.y_m)
+            << ", \"slope_deg\": " << num(best.slope_deg) << ", \"roughness_m\": " << num(best.roughness_m)
+            << ", \"true_slope_deg\": " << num(site_check->true_slope_deg)
+            << ", \"true_roughness_m\": " << num(site_check->true_roughness_m)
+            << ", \"truly_safe\": " << (site_check->truly_safe ? "true" : "false")
+            << ", \"cells_hazard\": " << site_check->cells_hazard
+            << ", \"cells_unknown\": " << site_check->cells_unknown << "}";
+      } else {
+        out << ", \"landing_site\": null";
+      }
       out << "}\n";
       if (!out) throw std::runtime_error("cannot write " + json_path);
     }

@@ -42,8 +42,7 @@
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/eval/evaluation_inputs.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
-#include "planetary_vo/terrain/densifier.h"
-#include "planetary_vo/terrain/terrain_map.h"
+#include "planetary_vo/terrain/hazard_mapper.h"
 #include "planetary_vo/vo/config_yaml.h"
 #include "planetary_vo/vo/pipeline.h"
 
@@ -63,6 +62,7 @@ struct Options {
   std::string velocity_path;
   std::string covariance_path;
   std::string terrain_dir;
+  std::string hazard_config_path;
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
 };
@@ -99,7 +99,10 @@ void usage(std::ostream& out) {
          "                    row-major, of every frame with one (camera + IMU mode; vo_eval --est-cov)\n"
          "  --output-terrain DIR  the terrain model of the landing area (terrain/terrain_map.h) from the map\n"
          "                    events, densified at each keyframe once metric (terrain/densifier.h), at the\n"
-         "                    end of the run: DIR/terrain.yaml and its layers (terrain_eval --est DIR)\n"
+         "                    end of the run: DIR/terrain.yaml and its layers (terrain_eval --est DIR), with\n"
+         "                    the hazard layer, and DIR/landing_sites.yaml (terrain/hazard_mapper.h)\n"
+         "  --hazard-config FILE  the terrain and hazard parameters for --output-terrain (default\n"
+         "                    config/hazard.yaml's values)\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -146,6 +149,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!value(&options->covariance_path)) return false;
     } else if (arg == "--output-terrain") {
       if (!value(&options->terrain_dir)) return false;
+    } else if (arg == "--hazard-config") {
+      if (!value(&options->hazard_config_path)) return false;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-pose-only") {
@@ -257,13 +262,14 @@ int main(int argc, char** argv) {
       frame_log
           << "# frame timestamp_s state tracked new inliers map_points keyframe model total_ms message\n";
     }
-    std::optional<terrain::TerrainMap> terrain_map;
-    std::optional<terrain::Densifier> densifier;
+    std::optional<terrain::HazardMapper> hazard_mapper;
     terrain::DensifierStats densified;
     if (!options.terrain_dir.empty()) {
       std::filesystem::create_directories(options.terrain_dir);
-      terrain_map.emplace();
-      densifier.emplace(dataset.camera());
+      hazard_mapper.emplace(options.hazard_config_path.empty()
+                                ? terrain::HazardMapperConfig()
+                                : terrain::loadHazardMapperConfig(options.hazard_config_path));
+      hazard_mapper->setCamera(dataset.camera());
     }
     Trajectory trajectory;
     std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
@@ -281,21 +287,13 @@ int main(int argc, char** argv) {
         pipeline.addImu(imu[next_imu++]);
       const FrameResult r = pipeline.process(dataset.timestamp(i), gray);
       if (r.metric_scale && metric_from_frame < 0) metric_from_frame = static_cast<int>(r.frame_index);
-      if (terrain_map) {
-        terrain_map->apply(r.map_events, r.metric_scale);
-        // The new keyframe's image densifies the landing area against an earlier one.
-        if (!r.map_events.keyframes_added.empty() && r.metric_scale) {
-          const MapKeyframeState& kf = r.map_events.keyframes_added.back();
-          const double ground_z = terrain_map->medianGroundHeight();
-          terrain::DensifierStats stats;
-          MapEvents dense;
-          dense.points_added = densifier->addKeyframe(kf.timestamp_s, kf.T_world_cam, gray,
-                                                      std::isfinite(ground_z) ? ground_z : 0.0, &stats);
-          terrain_map->apply(dense, r.metric_scale);
-          densified.seeds += stats.seeds;
-          densified.tracked += stats.tracked;
-          densified.triangulated += stats.triangulated;
-        }
+      if (hazard_mapper) {
+        // The events, and the new keyframe's image to densify the landing area against an earlier one.
+        const terrain::HazardMapperUpdate u = hazard_mapper->apply(
+            r.map_events, r.metric_scale, r.map_events.keyframes_added.empty() ? cv::Mat() : gray);
+        densified.seeds += u.densifier.seeds;
+        densified.tracked += u.densifier.tracked;
+        densified.triangulated += u.densifier.triangulated;
       }
       if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
       if (!r.processed) continue;
@@ -338,12 +336,15 @@ int main(int argc, char** argv) {
     }
     if (progress) std::fprintf(stderr, "\n");
     writeTumTrajectory(options.output_path, trajectory);
-    if (terrain_map) {
+    if (hazard_mapper) {
       if (!options.quiet)
         std::printf("terrain: densified %d corners, %d tracked, %d triangulated\n", densified.seeds,
                     densified.tracked, densified.triangulated);
-      const terrain::TerrainProducts products = terrain_map->products();
+      const terrain::HazardProducts hazard = hazard_mapper->products();
+      const terrain::TerrainProducts& products = hazard.terrain;
       terrain::writeGridSet(options.terrain_dir, "terrain", products.grids);
+      terrain::writeLandingSites(options.terrain_dir + "/landing_sites.yaml", hazard.sites,
+                                 hazard_mapper->config().sites);
       if (!options.quiet)
         std::printf(
             "terrain: %zu points (%zu used in the landing area), %d of %d cells with an elevation%s -> "
@@ -351,6 +352,16 @@ int main(int argc, char** argv) {
             products.num_points, products.num_used, products.cells_known,
             products.grids.geometry.rows * products.grids.geometry.cols,
             products.metric ? "" : " (NOT metric: map units)", options.terrain_dir.c_str());
+      if (!options.quiet && !hazard.sites.sites.empty()) {
+        const terrain::LandingSite& best = hazard.sites.sites.front();
+        std::printf(
+            "terrain: best landing site (%.1f, %.1f) m, %.1f m from the target: slope %.1f deg, roughness "
+            "%.2f m, clearance %.1f m (%zu sites)\n",
+            best.x_m, best.y_m, best.distance_to_target_m, best.slope_deg, best.roughness_m, best.clearance_m,
+            hazard.sites.sites.size());
+      } else if (!options.quiet) {
+        std::printf("terrain: no landing site: %s\n", hazard.sites.reason.c_str());
+      }
     }
 
     if (!options.quiet) {

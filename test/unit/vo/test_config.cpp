@@ -13,18 +13,12 @@
 
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/config_yaml.h"
+#include "test_support.h"
 
 namespace planetary_vo {
 namespace {
 
-/// The repository root, from this file's absolute path (CMake compiles tests by absolute path).
-std::string sourceRoot() {
-  const std::string file = __FILE__;
-  const std::string suffix = "test/unit/vo/test_config.cpp";
-  EXPECT_GE(file.size(), suffix.size());
-  EXPECT_EQ(file.substr(file.size() - suffix.size()), suffix);
-  return file.substr(0, file.size() - suffix.size());
-}
+using test::sourceRoot;
 
 std::string readText(const std::string& path) {
   std::ifstream in(path);

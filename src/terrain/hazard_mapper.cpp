@@ -1,0 +1,283 @@
+#include "planetary_vo/terrain/hazard_mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <variant>
+
+#include <yaml-cpp/yaml.h>
+
+namespace planetary_vo::terrain {
+namespace {
+
+std::string joined(const std::vector<std::string>& problems) {
+  std::string s = "hazard configuration:";
+  for (const std::string& p : problems) s += "\n  " + p;
+  return s;
+}
+
+using FieldPtr = std::variant<double*, int*, bool*>;
+using Fields = std::vector<std::pair<const char*, FieldPtr>>;
+
+/// The YAML keys of each section, pointing into one config: the single list of names.
+std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
+  return {
+      {"area",
+       {{"half_extent_m", &c->area.half_extent_m},
+        {"cell_size_m", &c->area.cell_size_m},
+        {"footprint_diameter_m", &c->area.footprint_diameter_m}}},
+      {"map",
+       {{"max_point_sigma_z_m", &c->map.max_point_sigma_z_m},
+        {"point_sigma_floor_m", &c->map.point_sigma_floor_m},
+        {"support_radius_m", &c->map.support_radius_m},
+        {"min_points_per_fit", &c->map.min_points_per_fit}}},
+      {"densifier",
+       {{"enabled", &c->densify},
+        {"area_margin_m", &c->densifier.area_margin_m},
+        {"grid_step_px", &c->densifier.grid_step_px},
+        {"max_corners", &c->densifier.max_corners},
+        {"min_corner_quality", &c->densifier.min_corner_quality},
+        {"max_keyframe_gap", &c->densifier.max_keyframe_gap},
+        {"target_parallax_deg", &c->densifier.target_parallax_deg},
+        {"partners_per_keyframe", &c->densifier.partners_per_keyframe},
+        {"warp_partner", &c->densifier.warp_partner},
+        {"min_seeds", &c->densifier.min_seeds},
+        {"min_parallax_deg", &c->densifier.min_parallax_deg},
+        {"max_forward_backward_px", &c->densifier.max_forward_backward_px},
+        {"pixel_sigma_px", &c->densifier.pixel_sigma_px},
+        {"klt_window_px", &c->densifier.klt_window_px},
+        {"klt_levels", &c->densifier.klt_levels}}},
+      {"thresholds",
+       {{"max_slope_deg", &c->thresholds.max_slope_deg}, {"max_roughness_m", &c->thresholds.max_roughness_m}}},
+      {"sites",
+       {{"target_x_m", &c->sites.target_x_m},
+        {"target_y_m", &c->sites.target_y_m},
+        {"max_distance_from_target_m", &c->sites.max_distance_from_target_m},
+        {"max_sites", &c->sites.max_sites},
+        {"min_separation_m", &c->sites.min_separation_m},
+        {"confidence_k", &c->sites.confidence_k},
+        {"min_clearance_m", &c->sites.min_clearance_m},
+        {"distance_weight", &c->sites.distance_weight}}},
+  };
+}
+
+/// Reads one scalar into the field; false (with `why`) on a wrong type or a non-finite number.
+bool readField(const YAML::Node& node, const FieldPtr& field, std::string* why) {
+  if (!node.IsScalar()) {
+    *why = "expected a scalar";
+    return false;
+  }
+  try {
+    if (auto* d = std::get_if<double*>(&field)) {
+      const double v = node.as<double>();
+      if (!std::isfinite(v)) {
+        *why = "not a finite number";
+        return false;
+      }
+      **d = v;
+    } else if (auto* i = std::get_if<int*>(&field)) {
+      **i = node.as<int>();
+    } else {
+      **std::get_if<bool*>(&field) = node.as<bool>();
+    }
+  } catch (const YAML::Exception&) {
+    *why = std::holds_alternative<double*>(field) ? "expected a number"
+           : std::holds_alternative<int*>(field)  ? "expected an integer"
+                                                   : "expected true or false";
+    return false;
+  }
+  return true;
+}
+
+/// Range checks by the stages themselves (their constructors and the site search on a tiny grid), so that
+/// the limits live in one place each.
+std::vector<std::string> validationErrors(const HazardMapperConfig& c) {
+  std::vector<std::string> problems;
+  HazardMapperConfig effective = c;
+  effective.map.area = c.area;
+  effective.densifier.area = c.area;
+  try {
+    (void)c.area.geometry();
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("area: ") + e.what());
+    return problems;
+  }
+  try {
+    TerrainMap check(effective.map);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("map/area: ") + e.what());
+  }
+  try {
+    Densifier check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.densifier);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("densifier: ") + e.what());
+  }
+  try {
+    GridSet tiny;
+    tiny.geometry = GridGeometry::centeredOnOrigin(1.0, 1.0);
+    tiny.layers["slope_deg"] = tiny.geometry.newLayer(0.0f);
+    tiny.layers["roughness_m"] = tiny.geometry.newLayer(0.0f);
+    (void)findLandingSites(tiny, c.thresholds, c.sites);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("thresholds/sites: ") + e.what());
+  }
+  return problems;
+}
+
+}  // namespace
+
+HazardConfigError::HazardConfigError(std::vector<std::string> problems)
+    : std::runtime_error(joined(problems)), problems_(std::move(problems)) {}
+
+HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text) {
+  HazardMapperConfig config;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw HazardConfigError({std::string("YAML syntax: ") + e.what()});
+  }
+  std::vector<std::string> problems;
+  if (root && !root.IsNull()) {
+    if (!root.IsMap()) throw HazardConfigError({"the document must be a map of sections"});
+    auto sections = sectionsOf(&config);
+    for (const auto& entry : root) {
+      const std::string section = entry.first.IsScalar() ? entry.first.as<std::string>() : "<non-scalar>";
+      auto s = std::find_if(sections.begin(), sections.end(),
+                            [&](const auto& known) { return section == known.first; });
+      if (s == sections.end()) {
+        problems.push_back(section + ": unknown section (known: area, map, densifier, thresholds, sites)");
+        continue;
+      }
+      if (!entry.second.IsMap()) {
+        if (!entry.second.IsNull()) problems.push_back(section + ": expected a map of keys");
+        continue;
+      }
+      for (const auto& kv : entry.second) {
+        const std::string key = kv.first.IsScalar() ? kv.first.as<std::string>() : "<non-scalar>";
+        auto f = std::find_if(s->second.begin(), s->second.end(),
+                              [&](const auto& known) { return key == known.first; });
+        if (f == s->second.end()) {
+          problems.push_back(section + "." + key + ": unknown key");
+          continue;
+        }
+        std::string why;
+        if (!readField(kv.second, f->second, &why)) problems.push_back(section + "." + key + ": " + why);
+      }
+    }
+  }
+  if (problems.empty()) problems = validationErrors(config);
+  if (!problems.empty()) throw HazardConfigError(problems);
+  config.map.area = config.area;
+  config.densifier.area = config.area;
+  return config;
+}
+
+std::string dumpHazardMapperConfig(const HazardMapperConfig& config) {
+  HazardMapperConfig copy = config;
+  std::ostringstream os;
+  os << std::setprecision(17);
+  for (const auto& [section, fields] : sectionsOf(&copy)) {
+    os << section << ":\n";
+    for (const auto& [key, field] : fields) {
+      os << "  " << key << ": ";
+      if (auto* d = std::get_if<double*>(&field)) os << **d;
+      else if (auto* i = std::get_if<int*>(&field)) os << **i;
+      else os << (**std::get_if<bool*>(&field) ? "true" : "false");
+      os << "\n";
+    }
+  }
+  return os.str();
+}
+
+HazardMapperConfig loadHazardMapperConfig(const std::string& yaml_path) {
+  std::ifstream in(yaml_path);
+  if (!in) throw HazardConfigError({yaml_path + ": cannot be read"});
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return parseHazardMapperConfig(text.str());
+  } catch (const HazardConfigError& e) {
+    std::vector<std::string> problems;
+    for (const std::string& p : e.problems()) problems.push_back(yaml_path + ": " + p);
+    throw HazardConfigError(problems);
+  }
+}
+
+namespace {
+HazardMapperConfig withArea(HazardMapperConfig c) {
+  c.map.area = c.area;
+  c.densifier.area = c.area;
+  return c;
+}
+}  // namespace
+
+HazardMapper::HazardMapper(const HazardMapperConfig& config) : config_(withArea(config)), map_(config_.map) {
+  const std::vector<std::string> problems = validationErrors(config_);
+  if (!problems.empty()) throw std::invalid_argument(joined(problems));
+}
+
+void HazardMapper::setCamera(const PinholeCamera& camera) {
+  auto densifier = std::make_unique<Densifier>(camera, config_.densifier);  // validates the camera
+  camera_ = std::make_unique<PinholeCamera>(camera);
+  densifier_ = std::move(densifier);
+}
+
+HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scale, const cv::Mat& keyframe_gray) {
+  HazardMapperUpdate update;
+  update.keyframe = !events.keyframes_added.empty();
+  if ((events.map_restarted || metric_scale != metric_) && camera_)
+    densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
+  metric_ = metric_scale;
+  map_.apply(events, metric_scale);
+  if (!update.keyframe || !metric_scale || !config_.densify || !densifier_ || keyframe_gray.empty())
+    return update;
+  if (keyframe_gray.type() != CV_8UC1 || keyframe_gray.cols != camera_->width() ||
+      keyframe_gray.rows != camera_->height())
+    throw std::invalid_argument("HazardMapper::apply: the keyframe image is not 8-bit gray of the camera's size (" +
+                                std::to_string(keyframe_gray.cols) + "x" + std::to_string(keyframe_gray.rows) +
+                                ", camera " + std::to_string(camera_->width()) + "x" +
+                                std::to_string(camera_->height()) + ")");
+  const MapKeyframeState& kf = events.keyframes_added.back();
+  const double ground_z = map_.medianGroundHeight();
+  MapEvents dense;
+  dense.points_added = densifier_->addKeyframe(kf.timestamp_s, kf.T_world_cam, keyframe_gray,
+                                               std::isfinite(ground_z) ? ground_z : 0.0, &update.densifier);
+  map_.apply(dense, metric_scale);
+  update.densified = true;
+  return update;
+}
+
+void HazardMapper::reset() {
+  map_.clear();
+  metric_ = false;
+  if (camera_) densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
+}
+
+HazardProducts HazardMapper::products() const {
+  HazardProducts out;
+  out.terrain = map_.products();
+  const GridSet& g = out.terrain.grids;
+  out.hazard = hazardMask(g.layers.at("slope_deg"), g.layers.at("roughness_m"), config_.thresholds);
+  cv::Mat hazard_f(out.hazard.size(), CV_32F);
+  for (int r = 0; r < out.hazard.rows; ++r)
+    for (int c = 0; c < out.hazard.cols; ++c) {
+      const uint8_t v = out.hazard.at<uint8_t>(r, c);
+      hazard_f.at<float>(r, c) = v == kUnknown ? std::numeric_limits<float>::quiet_NaN() : float(v);
+    }
+  out.terrain.grids.layers["hazard"] = hazard_f;
+  out.terrain.grids.parameters["max_slope_deg"] = config_.thresholds.max_slope_deg;
+  out.terrain.grids.parameters["max_roughness_m"] = config_.thresholds.max_roughness_m;
+  if (out.terrain.metric) {
+    out.sites = findLandingSites(out.terrain.grids, config_.thresholds, config_.sites);
+  } else {
+    out.sites.reason = "the map is not metric (vision only): no landing site is chosen on a map without metres";
+  }
+  return out;
+}
+
+}  // namespace planetary_vo::terrain

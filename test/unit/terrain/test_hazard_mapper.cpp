@@ -1,0 +1,187 @@
+// HazardMapper: config/hazard.yaml is the default and bad keys are named; the map events of a known terrain
+// (a flat plain next to a 20 deg bank) give the hazard mask and a landing site on the plain, clear of the
+// bank; no site on a map without metres; densification only once metric.
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "planetary_vo/terrain/hazard_mapper.h"
+#include "test_support.h"
+
+using namespace planetary_vo;
+using namespace planetary_vo::terrain;
+
+namespace {
+
+const double kBankGradient = std::tan(20.0 * M_PI / 180.0);
+
+/// Flat (z = 0) for x < 5 m, a 20 deg bank rising along +x beyond.
+double surface(double x, double /*y*/) { return x < 5.0 ? 0.0 : kBankGradient * (x - 5.0); }
+
+HazardMapperConfig smallArea() {
+  HazardMapperConfig config;
+  config.area.half_extent_m = 30.0;
+  config.area.cell_size_m = 0.5;
+  config.area.footprint_diameter_m = 4.0;
+  config.map.support_radius_m = 2.0;
+  config.sites.target_x_m = 10.0;  // on the bank: the site must move onto the plain
+  config.sites.target_y_m = 0.0;
+  config.sites.max_distance_from_target_m = 25.0;
+  return config;
+}
+
+/// Points every 0.5 m (jittered) on the surface, 2 cm vertical noise, a matching covariance.
+MapEvents pointsOnSurface() {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-0.2, 0.2);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  MapEvents events;
+  uint64_t id = 1;
+  for (double x = -34.0; x <= 34.0; x += 0.5)
+    for (double y = -34.0; y <= 34.0; y += 0.5) {
+      MapPointState p;
+      p.id = id++;
+      const double px = x + jitter(rng), py = y + jitter(rng);
+      p.p_world = Eigen::Vector3d(px, py, surface(px, py) + noise(rng));
+      p.covariance_world = Eigen::Matrix3d::Identity() * 0.02 * 0.02;
+      p.num_observations = 2;
+      events.points_added.push_back(p);
+    }
+  return events;
+}
+
+}  // namespace
+
+TEST(HazardMapperConfig, TheFileIsTheDefault) {
+  const HazardMapperConfig from_file = loadHazardMapperConfig(test::sourceRoot() + "config/hazard.yaml");
+  EXPECT_EQ(dumpHazardMapperConfig(from_file), dumpHazardMapperConfig(HazardMapperConfig()))
+      << "config/hazard.yaml and the stages' member initialisers disagree";
+  // dump -> parse is the identity on a changed config too.
+  HazardMapperConfig changed;
+  changed.area.cell_size_m = 0.25;
+  changed.densify = false;
+  changed.sites.max_sites = 3;
+  EXPECT_EQ(dumpHazardMapperConfig(parseHazardMapperConfig(dumpHazardMapperConfig(changed))),
+            dumpHazardMapperConfig(changed));
+  // The area is given once and reaches both stages.
+  const HazardMapperConfig parsed = parseHazardMapperConfig("area: {cell_size_m: 0.25}\n");
+  EXPECT_EQ(parsed.map.area.cell_size_m, 0.25);
+  EXPECT_EQ(parsed.densifier.area.cell_size_m, 0.25);
+}
+
+TEST(HazardMapperConfig, EveryBadKeyIsNamed) {
+  try {
+    parseHazardMapperConfig(
+        "area: {cell_size_m: fine}\nthresholds: {max_slope_dg: 8}\nhazards: {}\nsites: {max_sites: 2.5}\n");
+    FAIL() << "accepted";
+  } catch (const HazardConfigError& e) {
+    const std::string all = e.what();
+    EXPECT_EQ(e.problems().size(), 4u) << all;
+    EXPECT_NE(all.find("area.cell_size_m: expected a number"), std::string::npos) << all;
+    EXPECT_NE(all.find("thresholds.max_slope_dg: unknown key"), std::string::npos) << all;
+    EXPECT_NE(all.find("hazards: unknown section"), std::string::npos) << all;
+    EXPECT_NE(all.find("sites.max_sites: expected an integer"), std::string::npos) << all;
+  }
+  // Ranges are the stages' own checks.
+  EXPECT_THROW(parseHazardMapperConfig("area: {cell_size_m: -1}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("thresholds: {max_slope_deg: 0}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("densifier: {grid_step_px: 0}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("sites: {max_sites: 0}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("map: {support_radius_m: .nan}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("[1, 2]"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("area: {cell_size_m: [0.5]}\n"), HazardConfigError);
+}
+
+TEST(HazardMapper, TheBankIsAHazardAndTheSiteIsOnThePlain) {
+  HazardMapper mapper(smallArea());
+  mapper.apply(pointsOnSurface(), /*metric_scale=*/true);
+  const HazardProducts products = mapper.products();
+  ASSERT_TRUE(products.terrain.metric);
+  const GridGeometry& g = products.terrain.grids.geometry;
+  const cv::Mat& slope = products.terrain.grids.layers.at("slope_deg");
+  int plain_safe = 0, plain = 0, bank_hazard = 0, bank = 0;
+  for (int r = 0; r < g.rows; ++r)
+    for (int c = 0; c < g.cols; ++c) {
+      if (products.hazard.at<uint8_t>(r, c) == kUnknown) continue;
+      const double x = g.x_m(c);
+      if (x < 0.0) {
+        ++plain;
+        plain_safe += products.hazard.at<uint8_t>(r, c) == kSafe;
+        EXPECT_LT(slope.at<float>(r, c), 2.0f) << "x " << x;
+      } else if (x > 10.0) {
+        ++bank;
+        bank_hazard += products.hazard.at<uint8_t>(r, c) == kHazard;
+        EXPECT_NEAR(slope.at<float>(r, c), 20.0f, 2.0f) << "x " << x;
+      }
+    }
+  ASSERT_GT(plain, 1000);
+  ASSERT_GT(bank, 1000);
+  EXPECT_EQ(plain_safe, plain);
+  EXPECT_EQ(bank_hazard, bank);
+  // The hazard layer is the mask as float (NaN unknown), written with the rest.
+  const cv::Mat& hazard_f = products.terrain.grids.layers.at("hazard");
+  EXPECT_EQ(cv::countNonZero(hazard_f == 1.0f), cv::countNonZero(products.hazard == kHazard));
+  // The best site: on the plain (the target, on the bank, is not safe), clear of the bank's foot by the
+  // dispersion, within reach of the target.
+  ASSERT_FALSE(products.sites.sites.empty()) << products.sites.reason;
+  const LandingSite& best = products.sites.sites.front();
+  EXPECT_LE(best.x_m, 5.0 - 2.0 - smallArea().sites.min_clearance_m + 0.5);
+  EXPECT_LE(best.distance_to_target_m, smallArea().sites.max_distance_from_target_m);
+  EXPECT_LT(best.slope_deg, 2.0);
+
+  // The sites' file gives back the sites and the parameters they were chosen with.
+  const std::string file = test::outputDir("hazard_mapper") + "/landing_sites.yaml";
+  writeLandingSites(file, products.sites, mapper.config().sites);
+  LandingSiteParams params;
+  const LandingSiteResult read = readLandingSites(file, &params);
+  ASSERT_EQ(read.sites.size(), products.sites.sites.size());
+  for (size_t i = 0; i < read.sites.size(); ++i) {
+    EXPECT_EQ(read.sites[i].col, products.sites.sites[i].col);
+    EXPECT_EQ(read.sites[i].row, products.sites.sites[i].row);
+    EXPECT_EQ(read.sites[i].x_m, products.sites.sites[i].x_m);
+    EXPECT_EQ(read.sites[i].slope_margin_deg, products.sites.sites[i].slope_margin_deg);
+    EXPECT_EQ(read.sites[i].score, products.sites.sites[i].score);
+  }
+  EXPECT_EQ(read.cells_safe, products.sites.cells_safe);
+  EXPECT_EQ(params.target_x_m, 10.0);
+  EXPECT_EQ(params.min_clearance_m, mapper.config().sites.min_clearance_m);
+  EXPECT_THROW(readLandingSites(file + ".missing", &params), std::runtime_error);
+}
+
+TEST(HazardMapper, NoSiteOnAMapWithoutMetres) {
+  HazardMapper mapper(smallArea());
+  mapper.apply(pointsOnSurface(), /*metric_scale=*/false);
+  const HazardProducts products = mapper.products();
+  EXPECT_FALSE(products.terrain.metric);
+  EXPECT_TRUE(products.sites.sites.empty());
+  EXPECT_NE(products.sites.reason.find("not metric"), std::string::npos) << products.sites.reason;
+  // Slopes are still mapped (the map's scale is isotropic).
+  EXPECT_GT(cv::countNonZero(products.hazard == kHazard), 1000);
+}
+
+TEST(HazardMapper, DensifiesKeyframesOnlyOnceMetric) {
+  HazardMapper mapper(smallArea());
+  MapEvents events;
+  MapKeyframeState kf;
+  kf.id = 1;
+  kf.timestamp_s = 1.0;
+  kf.T_world_cam = Pose::Identity();
+  events.keyframes_added.push_back(kf);
+  cv::Mat gray(48, 64, CV_8UC1, cv::Scalar(100));
+  // Without a camera nothing can be densified.
+  EXPECT_FALSE(mapper.apply(events, true, gray).densified);
+  mapper.setCamera(PinholeCamera(64, 48, 60.0, 60.0, 32.0, 24.0));
+  EXPECT_FALSE(mapper.apply(events, /*metric_scale=*/false, gray).densified);
+  const HazardMapperUpdate update = mapper.apply(events, /*metric_scale=*/true, gray);
+  EXPECT_TRUE(update.keyframe);
+  EXPECT_TRUE(update.densified);
+  // A keyframe image of another size is refused, not tracked.
+  EXPECT_THROW(mapper.apply(events, true, cv::Mat(10, 10, CV_8UC1)), std::invalid_argument);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
