@@ -64,6 +64,54 @@ double slopeSigmaPerElevationSigma(double cell_size_m, double footprint_diameter
   return sum_abs / sum_sq / cell_size_m;
 }
 
+SurfaceSigmas surfaceSigmas(const GridSet& grids) {
+  const GridGeometry& g = grids.geometry;
+  const cv::Mat* elevation_sigma = findLayer(grids, "elevation_sigma_m", false);
+  const cv::Mat* fit_slope_sigma = findLayer(grids, "slope_sigma_deg", false);
+  const cv::Mat* fit_relief_sigma = findLayer(grids, "relief_sigma_m", false);
+  SurfaceSigmas out;
+  if (!elevation_sigma) return out;
+  const auto footprint = grids.parameters.find("footprint_diameter_m");
+  if (footprint == grids.parameters.end())
+    throw std::invalid_argument(
+        "landing sites: 'elevation_sigma_m' needs the grid set's parameter 'footprint_diameter_m'");
+  const std::vector<cv::Point> disc = footprintOffsets(g.cell_size_m, footprint->second);
+  int R = 0;
+  for (const cv::Point& o : disc) R = std::max(R, o.x);
+  cv::Mat kernel = cv::Mat::zeros(2 * R + 1, 2 * R + 1, CV_8U);
+  for (const cv::Point& o : disc) kernel.at<uint8_t>(o.y + R, o.x + R) = 1;
+  // The largest value over each cell's footprint disc; unknown (NaN) anywhere in it -> +inf -> unknown.
+  // Outside the grid the dilation's default border is neutral (the cells there have no slope anyway).
+  auto discMax = [&](const cv::Mat& layer) {
+    cv::Mat v = layer.clone(), out_layer;
+    cv::patchNaNs(v, std::numeric_limits<double>::infinity());
+    cv::dilate(v, out_layer, kernel);
+    return out_layer;
+  };
+  const cv::Mat sigma_z = discMax(*elevation_sigma);
+  const cv::Mat sigma_unknown = sigma_z == std::numeric_limits<float>::infinity();
+  out.roughness_m = fit_relief_sigma ? discMax(*fit_relief_sigma) : sigma_z;
+  if (fit_slope_sigma) {
+    out.slope_deg = discMax(*fit_slope_sigma);
+    out.slope_from_fit = true;
+  } else {
+    out.slope_deg = g.newLayer(0.0f);
+    const double c = slopeSigmaPerElevationSigma(g.cell_size_m, footprint->second);
+    for (int row = 0; row < g.rows; ++row) {
+      const float* s = sigma_z.ptr<float>(row);
+      float* o = out.slope_deg.ptr<float>(row);
+      for (int col = 0; col < g.cols; ++col) o[col] = static_cast<float>(std::atan(c * double(s[col])) * kRad2Deg);
+    }
+  }
+  // A footprint with an unknown sigma leaves the cell unknown, whatever k.
+  out.roughness_m.setTo(std::numeric_limits<float>::quiet_NaN(),
+                        sigma_unknown | (out.roughness_m == std::numeric_limits<float>::infinity()));
+  out.slope_deg.setTo(std::numeric_limits<float>::quiet_NaN(),
+                      sigma_unknown | (out.slope_deg == std::numeric_limits<float>::infinity()));
+  out.available = true;
+  return out;
+}
+
 LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds& thresholds,
                                    const LandingSiteParams& params) {
   checkParams(grids, thresholds, params);
@@ -71,40 +119,14 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
   const cv::Mat& slope = *findLayer(grids, "slope_deg", true);
   const cv::Mat& rough = *findLayer(grids, "roughness_m", true);
   const cv::Mat* elevation = findLayer(grids, "elevation_m", false);
-  const cv::Mat* elevation_sigma = findLayer(grids, "elevation_sigma_m", false);
 
   LandingSiteResult result;
   const double k = params.confidence_k;
 
-  // sigma_z = the largest elevation sigma over each cell's footprint disc.
-  cv::Mat sigma_slope_deg = g.newLayer(0.0f), sigma_rough_m = g.newLayer(0.0f);
-  if (elevation_sigma) {
-    const auto footprint = grids.parameters.find("footprint_diameter_m");
-    if (footprint == grids.parameters.end())
-      throw std::invalid_argument(
-          "landing sites: 'elevation_sigma_m' needs the grid set's parameter 'footprint_diameter_m'");
-    const std::vector<cv::Point> disc = footprintOffsets(g.cell_size_m, footprint->second);
-    int R = 0;
-    for (const cv::Point& o : disc) R = std::max(R, o.x);
-    cv::Mat kernel = cv::Mat::zeros(2 * R + 1, 2 * R + 1, CV_8U);
-    for (const cv::Point& o : disc) kernel.at<uint8_t>(o.y + R, o.x + R) = 1;
-    cv::Mat sigma_z = elevation_sigma->clone();
-    cv::patchNaNs(sigma_z, std::numeric_limits<double>::infinity());
-    // Outside the grid the dilation's default border is neutral (the cells there have no slope anyway).
-    cv::dilate(sigma_z, sigma_rough_m, kernel);
-    const double c = slopeSigmaPerElevationSigma(g.cell_size_m, footprint->second);
-    for (int row = 0; row < g.rows; ++row) {
-      const float* s = sigma_rough_m.ptr<float>(row);
-      float* out = sigma_slope_deg.ptr<float>(row);
-      for (int col = 0; col < g.cols; ++col)
-        out[col] = static_cast<float>(std::atan(c * double(s[col])) * kRad2Deg);
-    }
-    // A footprint with an unknown sigma leaves the cell unknown, whatever k.
-    const cv::Mat sigma_unknown = sigma_rough_m == std::numeric_limits<float>::infinity();
-    sigma_rough_m.setTo(std::numeric_limits<float>::quiet_NaN(), sigma_unknown);
-    sigma_slope_deg.setTo(std::numeric_limits<float>::quiet_NaN(), sigma_unknown);
-    result.uncertainty_applied = true;
-  }
+  const SurfaceSigmas sigmas = surfaceSigmas(grids);
+  result.uncertainty_applied = sigmas.available;
+  const cv::Mat sigma_slope_deg = sigmas.available ? sigmas.slope_deg : g.newLayer(0.0f);
+  const cv::Mat sigma_rough_m = sigmas.available ? sigmas.roughness_m : g.newLayer(0.0f);
 
   // Safe with confidence: the hazard mask of the raised slope and roughness (NaN stays unknown).
   const cv::Mat slope_upper = slope + k * sigma_slope_deg;

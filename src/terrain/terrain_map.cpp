@@ -94,6 +94,7 @@ TerrainProducts TerrainMap::products() const {
                           {"min_points_per_fit", config_.min_points_per_fit},
                           {"metric", metric_ ? 1.0 : 0.0}};
   cv::Mat elevation = geometry.newLayer(), sigma = geometry.newLayer(), support = geometry.newLayer(0.0f);
+  cv::Mat slope_sigma = geometry.newLayer(), relief_sigma = geometry.newLayer();
 
   // The usable points near the area, bucketed by the support radius.
   const double R = config_.support_radius_m;
@@ -165,15 +166,24 @@ TerrainProducts TerrainMap::products() const {
       const Eigen::Vector3d x = ldlt.solve(b);
       Eigen::Matrix3d covariance = ldlt.solve(Eigen::Matrix3d::Identity());
       const double chi2 = std::max(0.0, wzz - 2.0 * x.dot(b) + x.dot(A * x));
-      if (n > 3) covariance *= std::max(1.0, chi2 / (n - 3));
+      const double scatter = n > 3 ? chi2 / (n - 3) : 1.0;
+      const Eigen::Matrix2d gradient_covariance = covariance.block<2, 2>(1, 1) * scatter;
+      relief_sigma.at<float>(row, col) = static_cast<float>(std::sqrt(covariance(0, 0) * scatter));
+      covariance *= std::max(1.0, scatter);
       elevation.at<float>(row, col) = static_cast<float>(x(0));
       sigma.at<float>(row, col) = static_cast<float>(std::sqrt(covariance(0, 0)));
+      // The fitted plane's gradient: its 1-sigma along the worst direction, as a slope angle.
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> gradient(gradient_covariance);
+      slope_sigma.at<float>(row, col) = static_cast<float>(
+          std::atan(std::sqrt(std::max(0.0, gradient.eigenvalues()(1)))) * 180.0 / M_PI);
       ++out.cells_known;
     }
   }
   const SurfaceMaps surface = analyzeSurface(geometry, elevation, config_.area.footprint_diameter_m);
   out.grids.layers["elevation_m"] = elevation;
   out.grids.layers["elevation_sigma_m"] = sigma;
+  out.grids.layers["slope_sigma_deg"] = slope_sigma;
+  out.grids.layers["relief_sigma_m"] = relief_sigma;
   out.grids.layers["support_points"] = support;
   out.grids.layers["slope_deg"] = surface.slope_deg;
   out.grids.layers["roughness_m"] = surface.roughness_m;

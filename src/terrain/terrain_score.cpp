@@ -41,6 +41,8 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   double sz = 0, szz = 0, sss = 0, srr = 0;
   std::vector<double> slope_errors;
   double ss = 0, sr = 0;
+  const SurfaceSigmas sigmas = surfaceSigmas(estimate);
+  int s1 = 0, s2 = 0, r1 = 0, r2 = 0;
   for (int row = 0; row < truth.geometry.rows; ++row) {
     for (int col = 0; col < truth.geometry.cols; ++col) {
       const float zt = z_true.at<float>(row, col), ze = z_est.at<float>(row, col);
@@ -62,6 +64,18 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
       ss += s_est.at<float>(row, col) - s_true.at<float>(row, col);
       sr += r_est.at<float>(row, col) - r_true.at<float>(row, col);
       srr += std::pow(r_est.at<float>(row, col) - r_true.at<float>(row, col), 2);
+      if (sigmas.available) {
+        const float ssig = sigmas.slope_deg.at<float>(row, col), rsig = sigmas.roughness_m.at<float>(row, col);
+        if (std::isfinite(ssig) && std::isfinite(rsig)) {
+          ++score.cells_sigma;
+          const double es = std::abs(s_est.at<float>(row, col) - s_true.at<float>(row, col));
+          const double er = std::abs(r_est.at<float>(row, col) - r_true.at<float>(row, col));
+          s1 += es <= ssig;
+          s2 += es <= 2.0 * ssig;
+          r1 += er <= rsig;
+          r2 += er <= 2.0 * rsig;
+        }
+      }
       if (ht == kHazard && he == kHazard) ++score.hazard_tp;
       if (ht == kSafe && he == kHazard) ++score.hazard_fp;
       if (ht == kHazard && he == kSafe) ++score.hazard_fn;
@@ -87,6 +101,10 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   score.slope_error_p90_deg = quantile(0.9);
   score.hazard_precision = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fp);
   score.hazard_recall = ratio(score.hazard_tp, score.hazard_tp + score.hazard_fn);
+  score.slope_within_1sigma = ratio(s1, score.cells_sigma);
+  score.slope_within_2sigma = ratio(s2, score.cells_sigma);
+  score.roughness_within_1sigma = ratio(r1, score.cells_sigma);
+  score.roughness_within_2sigma = ratio(r2, score.cells_sigma);
   return score;
 }
 
@@ -152,7 +170,12 @@ std::string toJson(const TerrainScore& s) {
   num("hazard_fn", s.hazard_fn);
   num("hazard_tn", s.hazard_tn);
   num("hazard_precision", s.hazard_precision);
-  num("hazard_recall", s.hazard_recall, true);
+  num("hazard_recall", s.hazard_recall);
+  num("cells_sigma", s.cells_sigma);
+  num("slope_within_1sigma", s.slope_within_1sigma);
+  num("slope_within_2sigma", s.slope_within_2sigma);
+  num("roughness_within_1sigma", s.roughness_within_1sigma);
+  num("roughness_within_2sigma", s.roughness_within_2sigma, true);
   out << "}\n";
   return out.str();
 }

@@ -11,7 +11,8 @@
 ///  3. its centre lies within max_distance_from_target_m of the target.
 ///
 /// Uncertainty (layer `elevation_sigma_m`, the elevation's 1-sigma; without it sigma_slope = sigma_roughness
-/// = 0). sigma_z of a cell = the largest elevation sigma over its footprint disc (the disc its slope and
+/// = 0; with the terrain model's own `slope_sigma_deg` layer, that replaces the slope bound below: see
+/// surfaceSigmas). sigma_z of a cell = the largest elevation sigma over its footprint disc (the disc its slope and
 /// roughness were computed over, terrain/surface_analysis.h, diameter from the grid set's parameter
 /// `footprint_diameter_m`). The slope is the gradient of a least-squares plane over the disc's cells, g_x =
 /// sum(dx_i z_i) / sum(dx_i^2), so an elevation error e_i moves it by sum(dx_i e_i) / sum(dx_i^2). Whatever
@@ -101,6 +102,20 @@ struct LandingSiteResult {
 /// c of the file comment: the bound on the plane's gradient error per metre of elevation sigma over a
 /// footprint disc (1/m). Throws std::invalid_argument as footprintOffsets does.
 double slopeSigmaPerElevationSigma(double cell_size_m, double footprint_diameter_m);
+
+/// The 1-sigma of slope and roughness findLandingSites raises them by: roughness_m = sigma_z, the largest
+/// `elevation_sigma_m` over the footprint disc; slope_deg = the largest `slope_sigma_deg` over the disc when
+/// the grid set has that layer (the gradient uncertainty of the terrain model's plane fits,
+/// terrain_map.h), else the correlated-error bound atan(c sigma_z) of the file comment. NaN where a sigma
+/// over the disc is unknown. `available` is false (layers empty) without `elevation_sigma_m`.
+struct SurfaceSigmas {
+  bool available = false;
+  bool slope_from_fit = false;  ///< slope_deg from `slope_sigma_deg`, not from the bound
+  cv::Mat slope_deg, roughness_m;
+};
+/// Throws std::invalid_argument when `elevation_sigma_m` is there without the `footprint_diameter_m`
+/// parameter.
+SurfaceSigmas surfaceSigmas(const GridSet& grids);
 
 /// The sites of `grids` (layers `slope_deg`, `roughness_m`; optional `elevation_m`, `elevation_sigma_m`,
 /// the latter requiring the parameter `footprint_diameter_m`). Throws std::invalid_argument on a missing or

@@ -46,8 +46,10 @@ struct TerrainMapConfig {
 };
 
 struct TerrainProducts {
-  /// Layers elevation_m, elevation_sigma_m, support_points (count within the support radius), slope_deg,
-  /// roughness_m on config.area.geometry(); parameters record the config.
+  /// Layers elevation_m, elevation_sigma_m, slope_sigma_deg (the 1-sigma of the fitted plane's gradient
+  /// along its worst direction, as an angle: the slope uncertainty at the map's resolution), support_points
+  /// (count within the support radius), slope_deg, roughness_m on config.area.geometry(); parameters record
+  /// the config.
   GridSet grids;
   bool metric = false;    ///< distances in metres (else the VO map's unit)
   size_t num_points = 0;  ///< points in the model

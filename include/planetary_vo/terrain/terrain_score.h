@@ -28,6 +28,12 @@ struct TerrainScore {
   /// false negatives (true only), true negatives.
   int hazard_tp = 0, hazard_fp = 0, hazard_fn = 0, hazard_tn = 0;
   double hazard_precision = 0, hazard_recall = 0;  ///< NaN when undefined (no hazard estimated / true)
+  /// Calibration of the estimate's own uncertainty (surfaceSigmas of landing_sites.h, what the site search
+  /// raises slope and roughness by), over the cells_surface cells with a known sigma: the fraction whose
+  /// |error| is within 1 and 2 sigma (0.68 and 0.95 for a calibrated Gaussian). NaN without sigmas.
+  int cells_sigma = 0;
+  double slope_within_1sigma = 0, slope_within_2sigma = 0;
+  double roughness_within_1sigma = 0, roughness_within_2sigma = 0;
 };
 
 /// Throws std::invalid_argument when the geometries differ or a layer (elevation_m, slope_deg,

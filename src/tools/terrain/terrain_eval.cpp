@@ -52,6 +52,12 @@ void printScore(const TerrainScore& s, const HazardThresholds& thresholds) {
       "tn %d)\n",
       thresholds.max_slope_deg, thresholds.max_roughness_m, s.hazard_precision, s.hazard_recall, s.hazard_tp,
       s.hazard_fp, s.hazard_fn, s.hazard_tn);
+  if (s.cells_sigma > 0)
+    std::printf(
+        "  its sigmas (%d cells): slope error within 1 / 2 sigma %.2f / %.2f, roughness %.2f / %.2f "
+        "(calibrated: 0.68 / 0.95)\n",
+        s.cells_sigma, s.slope_within_1sigma, s.slope_within_2sigma, s.roughness_within_1sigma,
+        s.roughness_within_2sigma);
 }
 
 }  // namespace
