@@ -90,11 +90,20 @@ endif()
 #     test_vo_fused      vo_fused: player (with the nav/initial_state handover) -> nodelet with
 #                        config/lunar_fused.yaml; nav/odometry against ground truth without alignment, at the
 #                        IMU rate; vo/status mode, metric, inertial, counters
+#     test_hazard_node   hazard_end_to_end: the AGNC graph (player -> VO -> hazard nodelet in one manager):
+#                        hazard/map against the true ground under the camera, occupancy, sites, status, a
+#                        malformed vo/map_events rejected
+#   ros_test_hazard_conversions  gtest, no master: hazard products <-> messages
 # ---------------------------------------------------------------------------------------------------------------
 catkin_add_gtest(ros_test_vo_conversions test/ros/test_vo_conversions.cpp)
 if(TARGET ros_test_vo_conversions)
   target_link_libraries(ros_test_vo_conversions planetary_vo_ros GTest::gtest_main)
   planetary_vo_ros_target(ros_test_vo_conversions)
+endif()
+catkin_add_gtest(ros_test_hazard_conversions test/ros/test_hazard_conversions.cpp)
+if(TARGET ros_test_hazard_conversions)
+  target_link_libraries(ros_test_hazard_conversions planetary_vo_ros GTest::gtest_main)
+  planetary_vo_ros_target(ros_test_hazard_conversions)
 endif()
 catkin_add_gtest(ros_test_map_event_conversions test/ros/test_map_event_conversions.cpp)
 if(TARGET ros_test_map_event_conversions)
@@ -120,7 +129,7 @@ add_custom_target(vo_test_data DEPENDS ${VO_TEST_DATASET}/times.txt ${VO_TEST_BA
 add_dependencies(tests vo_test_data planetary_vo_nodelets vo_node)
 
 if(TARGET GTest::gtest)
-  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params test_vo_fused)
+  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params test_vo_fused test_hazard_node)
     add_executable(${node} EXCLUDE_FROM_ALL test/ros/${node}.cpp)
     target_link_libraries(${node} planetary_vo_ros planetary_vo_eval GTest::gtest)
     target_include_directories(${node} PRIVATE ${PROJECT_SOURCE_DIR}/test/ros)
@@ -147,6 +156,8 @@ if(TARGET GTest::gtest)
   add_rostest(test/ros/vo_params.test DEPENDENCIES test_vo_params planetary_vo_nodelets)
   add_rostest(test/ros/vo_fused.test ARGS dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_vo_fused player ${vo_deps})
+  add_rostest(test/ros/hazard_end_to_end.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_hazard_node player ${vo_deps})
 endif()
 
 # ---------------------------------------------------------------------------------------------------------------
