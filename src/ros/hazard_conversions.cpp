@@ -15,7 +15,9 @@
 namespace planetary_vo::ros_io {
 namespace {
 
-const char* const kRasterLayers[] = {"elevation_m", "elevation_sigma_m", "slope_deg", "roughness_m"};
+constexpr int kNumRasterLayers = 6;
+const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m", "elevation_sigma_m", "relief_sigma_m",
+                                                     "slope_sigma_deg", "slope_deg", "roughness_m"};
 
 sensor_msgs::Image floatImage(const cv::Mat& layer, const std_msgs::Header& header) {
   sensor_msgs::Image img;
@@ -87,8 +89,9 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.max_roughness_m = config.thresholds.max_roughness_m;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
-  sensor_msgs::Image* out[] = {&msg.elevation_m, &msg.elevation_sigma_m, &msg.slope_deg, &msg.roughness_m};
-  for (int i = 0; i < 4; ++i) {
+  sensor_msgs::Image* out[kNumRasterLayers] = {&msg.elevation_m,     &msg.elevation_sigma_m, &msg.relief_sigma_m,
+                                               &msg.slope_sigma_deg, &msg.slope_deg,         &msg.roughness_m};
+  for (int i = 0; i < kNumRasterLayers; ++i) {
     auto it = grids.layers.find(kRasterLayers[i]);
     if (it != grids.layers.end()) *out[i] = floatImage(it->second, header);
   }
@@ -98,8 +101,10 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
 terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
   terrain::GridSet grids;
   grids.geometry = fromMapMetaData(msg.info);
-  const sensor_msgs::Image* in[] = {&msg.elevation_m, &msg.elevation_sigma_m, &msg.slope_deg, &msg.roughness_m};
-  for (int i = 0; i < 4; ++i)
+  const sensor_msgs::Image* in[kNumRasterLayers] = {&msg.elevation_m,     &msg.elevation_sigma_m,
+                                                    &msg.relief_sigma_m,  &msg.slope_sigma_deg,
+                                                    &msg.slope_deg,       &msg.roughness_m};
+  for (int i = 0; i < kNumRasterLayers; ++i)
     if (!in[i]->data.empty()) grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);
   grids.parameters = {{"footprint_diameter_m", msg.footprint_diameter_m},
                       {"support_radius_m", msg.support_radius_m},
@@ -208,14 +213,15 @@ visualization_msgs::MarkerArray toMarkers(const LandingSites& sites) {
     disc.pose.position = s.position;
     disc.pose.position.z = z;
     disc.scale.x = disc.scale.y = 2.0 * sites.min_clearance_m;
-    disc.scale.z = 0.3;
+    disc.scale.z = 1.0;  // a flat disc would hide in the terrain's points
+    disc.pose.position.z = z + 0.5;
     disc.color.g = 1.0f;
     disc.color.r = i == 0 ? 0.0f : 1.0f;
     markers.markers.push_back(disc);
     visualization_msgs::Marker text = base("site_labels", int(i), visualization_msgs::Marker::TEXT_VIEW_FACING);
     text.pose.position = disc.pose.position;
-    text.pose.position.z = z + 3.0;
-    text.scale.z = 2.0;
+    text.pose.position.z = z + 6.0;
+    text.scale.z = 4.0;
     text.color.r = text.color.g = text.color.b = 1.0f;
     text.color.a = 1.0f;
     std::ostringstream label;
