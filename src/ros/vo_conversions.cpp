@@ -41,9 +41,8 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info) {
   if (info.width == 0 || info.height == 0) return "camera_info has no image size (width/height 0)";
   for (double d : info.D)
     if (!std::isfinite(d)) return "camera_info distortion coefficients are not finite";
-  const std::string& model = info.distortion_model;
-  if (!model.empty() && model != "plumb_bob" && model != "equidistant")
-    return "unsupported distortion model '" + model + "' (accepted: plumb_bob, equidistant)";
+  // The rest (distortion model and length, principal point, field of view, invertible distortion) is the
+  // core's PinholeCamera::isValid(), shared with vo_run and the dataset readers.
   std::string why;
   if (!fromCameraInfo(info).isValid(&why)) return "camera_info rejected: " + why;
   return "";

@@ -93,9 +93,28 @@ TEST(VoConversions, CameraInfoChecks) {
   bad.width = 0;
   EXPECT_NE(checkCameraInfo(bad), "");
   bad = good;
-  bad.distortion_model = "rational_polynomial";
-  bad.D.assign(8, 0.1);
+  bad.distortion_model = "kannala_brandt";
+  bad.D.assign(4, 0.1);
   EXPECT_NE(checkCameraInfo(bad).find("unsupported distortion"), std::string::npos);
+  // Issue 12: the number of coefficients per model (a plumb_bob D of 3 made cv::undistortPoints assert and
+  // abort the manager), the principal point, the field of view; rational_polynomial is supported.
+  sensor_msgs::CameraInfo rational = good;
+  rational.distortion_model = "rational_polynomial";
+  rational.D = {0.1, 0.01, 0.0, 0.0, 0.001, 0.1, 0.01, 0.001};
+  EXPECT_EQ(checkCameraInfo(rational), "");
+  rational.D.resize(5);
+  EXPECT_NE(checkCameraInfo(rational).find("needs 8 coefficients, got 5"), std::string::npos);
+  for (size_t n : {3u, 6u, 7u, 100u}) {
+    bad = good;
+    bad.D.assign(n, 0.01);
+    EXPECT_NE(checkCameraInfo(bad).find("plumb_bob distortion needs 5 coefficients"), std::string::npos) << n;
+  }
+  bad = good;
+  bad.K[2] = 1e9;
+  EXPECT_NE(checkCameraInfo(bad).find("principal point"), std::string::npos) << checkCameraInfo(bad);
+  bad = good;
+  bad.K[0] = bad.K[4] = 1e9;
+  EXPECT_NE(checkCameraInfo(bad).find("field of view"), std::string::npos) << checkCameraInfo(bad);
   sensor_msgs::CameraInfo fisheye = good;
   fisheye.distortion_model = "equidistant";
   fisheye.D = {0.1, 0.01, 0.0, 0.0};

@@ -25,9 +25,10 @@
 
 namespace planetary_vo::ros_io {
 
-/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size, a
-/// supported distortion model ("", plumb_bob, rational_polynomial is not) with the right number of finite
-/// coefficients. Returns "" when usable, else what is wrong.
+/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size, finite
+/// coefficients, then PinholeCamera::isValid() of fromCameraInfo() (distortion model and its number of
+/// coefficients, principal point inside the image, plausible field of view, distortion invertible over the
+/// image). Returns "" when usable, else what is wrong.
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
 
 /// @brief Checks that an 8-bit image is neither blank (grey-level stddev below min_stddev: black, or any
