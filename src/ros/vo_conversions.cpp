@@ -60,6 +60,26 @@ std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_sat
   return "";
 }
 
+bool checkOutputPose(const Pose& T, std::string* why) {
+  if (!T.matrix().allFinite()) {
+    *why = "the pipeline returned a non-finite pose";
+    return false;
+  }
+  const Eigen::Matrix3d R = T.linear();
+  const double orthonormality = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
+  if (!(orthonormality < 1e-6) || !(R.determinant() > 0.0)) {
+    *why = "the pipeline returned a pose whose attitude is not a rotation (|R^T R - I| = " +
+           std::to_string(orthonormality) + ", det " + std::to_string(R.determinant()) + ")";
+    return false;
+  }
+  if (!(T.translation().norm() < kMaxOutputPositionMagnitude)) {
+    *why = "the pipeline returned a position " + std::to_string(T.translation().norm()) +
+           " units from the origin (diverged)";
+    return false;
+  }
+  return true;
+}
+
 VoStatus toVoStatus(const FrameResult& r, const std_msgs::Header& header) {
   VoStatus s;
   s.header = header;

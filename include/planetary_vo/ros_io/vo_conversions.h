@@ -35,6 +35,12 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
 /// uniform frame) nor saturated (more than max_saturated_ratio of the pixels at 255). Returns "" when usable.
 std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
 
+/// Largest position magnitude (VO units) a published pose may have: beyond it the estimate has diverged.
+constexpr double kMaxOutputPositionMagnitude = 1e9;
+/// @brief The final guard before a pose is published: finite, a rotation (orthonormal within 1e-6, det +1, so
+/// its quaternion is unit) and a position within kMaxOutputPositionMagnitude. False with *why otherwise.
+bool checkOutputPose(const Pose& T_world_cam, std::string* why);
+
 /// FrameResult -> VoStatus (state, counts, motion model, times, scale confidence, scale source, metric,
 /// inertial, velocity and biases, message). The counters, mode, initial_state_applied and ros_overhead_ms are
 /// left for the caller.
