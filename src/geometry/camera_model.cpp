@@ -43,6 +43,21 @@ Eigen::Matrix3d PinholeCamera::K() const {
 
 cv::Matx33d PinholeCamera::Kcv() const { return cv::Matx33d(fx_, 0, cx_, 0, fy_, cy_, 0, 0, 1); }
 
+namespace {
+
+/// Number of coefficients of each supported distortion model (ROS camera_info / OpenCV conventions).
+size_t coefficientCount(const std::string& model) {
+  if (model == "plumb_bob") return 5;
+  if (model == "rational_polynomial") return 8;
+  if (model == "equidistant") return 4;
+  return 0;
+}
+
+Eigen::Vector2d distortNormalized(const std::string& model, const std::vector<double>& d,
+                                  const Eigen::Vector2d& n);
+
+}  // namespace
+
 bool PinholeCamera::isValid(std::string* why) const {
   auto fail = [&](const std::string& reason) {
     if (why) *why = reason;
@@ -52,13 +67,81 @@ bool PinholeCamera::isValid(std::string* why) const {
   if (!std::isfinite(fx_) || !std::isfinite(fy_) || fx_ <= 0.0 || fy_ <= 0.0)
     return fail("focal length is zero, negative or not finite");
   if (!std::isfinite(cx_) || !std::isfinite(cy_)) return fail("principal point is not finite");
+  // Inside the image, pixel edges included (pixel centres are at integer coordinates).
+  if (cx_ < -0.5 || cx_ > width_px_ - 0.5 || cy_ < -0.5 || cy_ > height_px_ - 0.5)
+    return fail("principal point (" + std::to_string(cx_) + ", " + std::to_string(cy_) + ") px is outside the " +
+                std::to_string(width_px_) + "x" + std::to_string(height_px_) + " image");
+  const double fov_x_deg = 2.0 * std::atan(0.5 * width_px_ / fx_) * 180.0 / M_PI;
+  const double fov_y_deg = 2.0 * std::atan(0.5 * height_px_ / fy_) * 180.0 / M_PI;
+  for (double fov : {fov_x_deg, fov_y_deg})
+    if (!(fov >= kMinFieldOfViewDeg && fov <= kMaxFieldOfViewDeg))
+      return fail("focal length (fx " + std::to_string(fx_) + ", fy " + std::to_string(fy_) +
+                  " px) gives a field of view of " + std::to_string(fov_x_deg) + " x " + std::to_string(fov_y_deg) +
+                  " deg, outside the plausible " + std::to_string(kMinFieldOfViewDeg) + " - " +
+                  std::to_string(kMaxFieldOfViewDeg) + " deg");
   for (double d : distortion_)
     if (!std::isfinite(d)) return fail("distortion coefficient is not finite");
-  if (!distortion_model_.empty() && distortion_model_ != "plumb_bob" &&
-      distortion_model_ != "rational_polynomial" && distortion_model_ != "equidistant")
-    return fail("unsupported distortion model '" + distortion_model_ + "'");
-  if (distortion_model_ == "equidistant" && hasDistortion() && distortion_.size() < 4)
-    return fail("equidistant distortion needs 4 coefficients");
+  if (distortion_model_.empty()) return true;
+  const size_t needed = coefficientCount(distortion_model_);
+  if (needed == 0)
+    return fail("unsupported distortion model '" + distortion_model_ +
+                "' (accepted: plumb_bob, rational_polynomial, equidistant)");
+  // No coefficients at all is an ideal camera (ROS sends plumb_bob with D = []); otherwise exactly the model's.
+  if (!distortion_.empty() && distortion_.size() != needed)
+    return fail(distortion_model_ + " distortion needs " + std::to_string(needed) + " coefficients, got " +
+                std::to_string(distortion_.size()));
+  if (hasDistortion() && !distortionInvertible(why)) return false;
+  return true;
+}
+
+bool PinholeCamera::distortionInvertible(std::string* why) const {
+  // Along the ray from the principal point to each image corner (the farthest pixels), the distorted radius
+  // must grow strictly with the ideal radius until it reaches the corner: then every measured pixel of the
+  // image has exactly one ideal pixel (radially; a small tangential part only shifts it), and the Newton
+  // iteration of undistortPixel() converges. Steps of 1/512 of the corner radius, growing by 1 % once larger
+  // (the ideal radius of a barrel lens's corner exceeds the measured one), up to 1000x the corner radius.
+  const Eigen::Vector2d corners[4] = {{0.0, 0.0},
+                                      {double(width_px_ - 1), 0.0},
+                                      {0.0, double(height_px_ - 1)},
+                                      {double(width_px_ - 1), double(height_px_ - 1)}};
+  for (const Eigen::Vector2d& corner : corners) {
+    const Eigen::Vector2d n_corner = pixelToNormalized(corner);
+    const double r_corner = n_corner.norm();
+    if (r_corner < 1e-12) continue;
+    const Eigen::Vector2d u = n_corner / r_corner;
+    const double step = r_corner / 512.0;
+    double r = 0.0, r_distorted = 0.0;
+    bool reached = false;
+    for (int k = 0; k < 20000 && r < 1000.0 * r_corner; ++k) {
+      r += std::max(step, 0.01 * r);
+      const double next = distortNormalized(distortion_model_, distortion_, r * u).dot(u);
+      if (!std::isfinite(next) || next <= r_distorted) break;
+      r_distorted = next;
+      if (r_distorted >= r_corner) {
+        reached = true;
+        break;
+      }
+    }
+    // Huge coefficients squeeze the image into a sliver of view (or stretch it): no lens changes the corner's
+    // radius by more than kMaxRadiusRatio (a fisheye's corner at 85 deg off the axis: about 8).
+    constexpr double kMaxRadiusRatio = 20.0;
+    if (reached && (r_corner > kMaxRadiusRatio * r || r > kMaxRadiusRatio * r_corner)) {
+      if (why)
+        *why = distortion_model_ + " distortion changes the radius of the image corner from " +
+               std::to_string(r * std::max(fx_, fy_)) + " to " + std::to_string(r_corner * std::max(fx_, fy_)) +
+               " px: not a plausible field of view";
+      return false;
+    }
+    if (!reached) {
+      if (why)
+        *why = distortion_model_ + " distortion is not invertible over the image: the radial mapping towards "
+               "the corner (" + std::to_string(int(corner.x())) + ", " + std::to_string(int(corner.y())) +
+               ") turns back or saturates at " + std::to_string(r_distorted * std::max(fx_, fy_)) +
+               " px from the principal point, before the corner at " + std::to_string(r_corner * std::max(fx_, fy_)) +
+               " px";
+      return false;
+    }
+  }
   return true;
 }
 

@@ -134,7 +134,39 @@ class AlignedPathNode {
   }
 
  private:
+  /// No exception leaves a callback (a NaN pose, a failed alignment, an allocation): it is logged, the message
+  /// dropped, the node continues.
+  template <class Body>
+  void contained(const char* where, Body&& body) {
+    try {
+      body();
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM_THROTTLE(5, "aligned_path_node: " << where << " failed: " << e.what() << " (ignored)");
+    } catch (...) {
+      ROS_ERROR_STREAM_THROTTLE(5, "aligned_path_node: " << where << " failed: unknown exception (ignored)");
+    }
+  }
+
   void onGroundTruth(const geometry_msgs::PoseStampedConstPtr& msg) {
+    contained("onGroundTruth", [&] { onGroundTruthBody(msg); });
+  }
+  void onEstimate(const geometry_msgs::PoseStampedConstPtr& msg) {
+    contained("onEstimate", [&] { onEstimateBody(msg); });
+  }
+  void onMap(const sensor_msgs::PointCloud2ConstPtr& msg) {
+    contained("onMap", [&] { onMapBody(msg); });
+  }
+  void onPathSubscriber() {
+    contained("onPathSubscriber", [&] { onPathSubscriberBody(); });
+  }
+  void onMapSubscriber() {
+    contained("onMapSubscriber", [&] { onMapSubscriberBody(); });
+  }
+  void onTimer(const ros::WallTimerEvent& e) {
+    contained("onTimer", [&] { onTimerBody(e); });
+  }
+
+  void onGroundTruthBody(const geometry_msgs::PoseStampedConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (gt_frame_.empty()) gt_frame_ = msg->header.frame_id;
     const double t = msg->header.stamp.toSec();
@@ -151,7 +183,7 @@ class AlignedPathNode {
     if (!alignment_.valid() && !estimate.empty() && t <= estimate.back().timestamp_s + max_dt_s_) realign();
   }
 
-  void onEstimate(const geometry_msgs::PoseStampedConstPtr& msg) {
+  void onEstimateBody(const geometry_msgs::PoseStampedConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!alignment_.addEstimate({msg->header.stamp.toSec(), fromPoseMsg(msg->pose)})) {
       ROS_WARN_THROTTLE(5,
@@ -168,28 +200,33 @@ class AlignedPathNode {
       publishPath();
   }
 
-  void onMap(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  void onMapBody(const sensor_msgs::PointCloud2ConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     map_ = msg;
     publishMap();
   }
 
-  void onPathSubscriber() {
+  void onPathSubscriberBody() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (path_skipped_) publishPath();
   }
 
-  void onMapSubscriber() {
+  void onMapSubscriberBody() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (map_skipped_) publishMap();
   }
 
-  void onTimer(const ros::WallTimerEvent&) {
+  void onTimerBody(const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (changed_) realign();
   }
 
-  bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res) {
+    res.success = false;
+    contained("onReset", [&] { onResetBody(req, res); });
+    return true;
+  }
+  bool onResetBody(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
     std::lock_guard<std::mutex> lock(mutex_);
     alignment_ = RunningAlignment(max_dt_s_);
     est_stamps_.clear();

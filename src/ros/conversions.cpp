@@ -305,6 +305,19 @@ bool isSupportedEncoding(const std::string& encoding) {
          encoding == enc::BGR8 || encoding == enc::RGBA8 || encoding == enc::BGRA8;
 }
 
+namespace {
+
+/// Whatever a conversion did, the pipeline gets one 8-bit channel of the message's size, or a reason.
+bool checkedGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
+  if (gray->type() == CV_8UC1 && gray->cols == int(msg->width) && gray->rows == int(msg->height)) return true;
+  *why = "image conversion of '" + msg->encoding + "' (is_bigendian " + std::to_string(int(msg->is_bigendian)) +
+         ") gave " + std::to_string(gray->channels()) + " channel(s) of depth " + std::to_string(gray->depth()) +
+         ", " + std::to_string(gray->cols) + "x" + std::to_string(gray->rows) + ": not an 8-bit gray image";
+  return false;
+}
+
+}  // namespace
+
 bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
   namespace enc = sensor_msgs::image_encodings;
   if (!isSupportedEncoding(msg->encoding)) {
@@ -325,12 +338,25 @@ bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* 
     return false;
   }
   try {
+    if (msg->encoding == enc::MONO16) {
+      // Not through cv_bridge: for a byte order other than the host's it returns two 8-bit channels. Each
+      // pixel is decoded in the message's byte order (is_bigendian), row by row (step).
+      cv::Mat host(int(msg->height), int(msg->width), CV_16UC1);
+      const bool big_endian = msg->is_bigendian != 0;
+      for (uint32_t r = 0; r < msg->height; ++r) {
+        const uint8_t* src = msg->data.data() + size_t(r) * msg->step;
+        uint16_t* dst = host.ptr<uint16_t>(int(r));
+        for (uint32_t c = 0; c < msg->width; ++c, src += 2)
+          dst[c] = big_endian ? uint16_t((uint16_t(src[0]) << 8) | src[1])
+                              : uint16_t(src[0] | (uint16_t(src[1]) << 8));
+      }
+      host.convertTo(*gray, CV_8U, 1.0 / 256.0);
+      return checkedGray(msg, gray, why);
+    }
     const cv_bridge::CvImageConstPtr shared = cv_bridge::toCvShare(msg);  // no copy: the Mat views msg->data
     const cv::Mat& in = shared->image;
     if (msg->encoding == enc::MONO8)
       *gray = in;
-    else if (msg->encoding == enc::MONO16)
-      in.convertTo(*gray, CV_8U, 1.0 / 256.0);
     else if (msg->encoding == enc::RGB8)
       cv::cvtColor(in, *gray, cv::COLOR_RGB2GRAY);
     else if (msg->encoding == enc::BGR8)
@@ -343,7 +369,7 @@ bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* 
     *why = std::string("image conversion failed: ") + e.what();
     return false;
   }
-  return true;
+  return checkedGray(msg, gray, why);
 }
 
 }  // namespace planetary_vo::ros_io

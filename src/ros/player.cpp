@@ -4,6 +4,7 @@
 #include "planetary_vo/ros_io/player.h"
 
 #include <algorithm>
+#include <memory>
 #include <stdexcept>
 #include <tuple>
 
@@ -160,11 +161,33 @@ size_t Player::drainTo(PlayerSink& sink) {
 namespace {
 
 /// Records the stream with the topic names the live node publishes (absolute, from the root namespace).
+/// A write error (disk full: rosbag::BagIOException) is thrown once, as a runtime_error naming the file; the
+/// Bag is then abandoned, never destroyed: rosbag::Bag::~Bag() would retry the close, throw again from a
+/// destructor and std::terminate the process. The OS closes the file at exit; the bag is incomplete.
 class BagSink : public PlayerSink {
  public:
-  explicit BagSink(const std::string& path) { bag_.open(path, rosbag::bagmode::Write); }
+  explicit BagSink(const std::string& path) : path_(path), bag_(std::make_unique<rosbag::Bag>()) {
+    try {
+      guarded([&] { bag_->open(path, rosbag::bagmode::Write); });
+    } catch (...) {
+      (void)bag_.release();  // no destructor of this object runs: abandon the Bag here (class comment)
+      throw;
+    }
+  }
+  ~BagSink() override {
+    if (failed_) {
+      (void)bag_.release();  // see the class comment: a Bag that failed to write cannot be destroyed
+      return;
+    }
+    try {
+      bag_.reset();
+    } catch (...) {
+    }
+  }
 
-  void emit(const PlayerMessage& m) override {
+  void emit(const PlayerMessage& m) override { guarded([&] { emitToBag(m); }); }
+
+  void emitToBag(const PlayerMessage& m) {
     switch (m.kind) {
       case StreamKind::kImu:
         write(player_topics::kImu, m.stamp, m.imu);
@@ -187,7 +210,7 @@ class BagSink : public PlayerSink {
   }
 
   size_t count() const { return count_; }
-  void close() { bag_.close(); }
+  void close() { guarded([&] { bag_->close(); }); }
 
   /// A message `rosbag play` republishes latched (the connection header says so).
   template <class Msg>
@@ -199,18 +222,33 @@ class BagSink : public PlayerSink {
     (*header)["message_definition"] = ros::message_traits::definition<Msg>();
     (*header)["latching"] = "1";
     (*header)["callerid"] = "/player";
-    bag_.write(absoluteTopic(topic), stamp, msg, header);
+    guarded([&] { bag_->write(absoluteTopic(topic), stamp, msg, header); });
     ++count_;
   }
 
  private:
   template <class Msg>
   void write(const char* topic, const ros::Time& stamp, const Msg& msg) {
-    bag_.write(absoluteTopic(topic), stamp, msg);
+    bag_->write(absoluteTopic(topic), stamp, msg);
     ++count_;
   }
 
-  rosbag::Bag bag_;
+  /// Runs a Bag operation; its failure becomes one runtime_error, and every later operation is refused.
+  template <class Op>
+  void guarded(Op&& op) {
+    if (failed_) throw std::runtime_error("writing the bag " + path_ + " failed earlier");
+    try {
+      op();
+    } catch (const std::exception& e) {
+      failed_ = true;
+      throw std::runtime_error("writing the bag failed: " + path_ + ": " + e.what() +
+                               " (disk full?); the bag is incomplete");
+    }
+  }
+
+  std::string path_;
+  std::unique_ptr<rosbag::Bag> bag_;
+  bool failed_ = false;
   size_t count_ = 0;
 };
 

@@ -294,6 +294,15 @@ class PlayerNode {
 
   /// Any message type whose first field is a std_msgs/Header (as every stamped message): its stamp.
   void onAck(const topic_tools::ShapeShifter::ConstPtr& msg) {
+    try {  // no exception leaves a callback
+      onAckBody(msg);
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM_THROTTLE(5, "player: " << ack_sub_.getTopic() << " message ignored: " << e.what());
+    } catch (...) {
+      ROS_ERROR_STREAM_THROTTLE(5, "player: " << ack_sub_.getTopic() << " message ignored: unknown exception");
+    }
+  }
+  void onAckBody(const topic_tools::ShapeShifter::ConstPtr& msg) {
     std::vector<uint8_t> buffer(msg->size());
     ros::serialization::OStream out(buffer.data(), static_cast<uint32_t>(buffer.size()));
     msg->write(out);

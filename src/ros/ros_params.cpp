@@ -108,7 +108,50 @@ VoConfig loadVoConfigFromParams(const ros::NodeHandle& private_nh) {
   }
 }
 
-NodeletParams loadNodeletParams(const ros::NodeHandle& nh) {
+std::vector<std::string> validateNodeletParams(NodeletParams* p) {
+  const NodeletParams d;
+  std::vector<std::string> problems;
+  auto check = [&problems](const char* name, double* value, double fallback, bool ok, const char* rule) {
+    if (std::isfinite(*value) && ok) return;
+    std::ostringstream os;
+    os << "~" << name << " = " << *value << " is invalid (" << rule << "): the default " << fallback
+       << " is used";
+    problems.push_back(os.str());
+    *value = fallback;
+  };
+  check("position_sigma_m", &p->position_sigma_m, d.position_sigma_m, p->position_sigma_m > 0.0, "> 0");
+  check("orientation_sigma_rad", &p->orientation_sigma_rad, d.orientation_sigma_rad, p->orientation_sigma_rad > 0.0,
+        "> 0");
+  check("lost_sigma_factor", &p->lost_sigma_factor, d.lost_sigma_factor, p->lost_sigma_factor >= 1.0, ">= 1");
+  check("velocity_sigma_mps", &p->velocity_sigma_mps, d.velocity_sigma_mps, p->velocity_sigma_mps > 0.0, "> 0");
+  check("min_exposure_stddev", &p->min_exposure_stddev, d.min_exposure_stddev, p->min_exposure_stddev >= 0.0,
+        ">= 0");
+  check("max_saturated_ratio", &p->max_saturated_ratio, d.max_saturated_ratio,
+        p->max_saturated_ratio > 0.0 && p->max_saturated_ratio <= 1.0, "in (0, 1]");
+  check("max_frame_gap_factor", &p->max_frame_gap_factor, d.max_frame_gap_factor, p->max_frame_gap_factor > 1.0,
+        "> 1");
+  check("min_rate_hz", &p->min_rate_hz, d.min_rate_hz, p->min_rate_hz > 0.0, "> 0");
+  check("max_rate_hz", &p->max_rate_hz, d.max_rate_hz, p->max_rate_hz > p->min_rate_hz, "> ~min_rate_hz");
+  check("initial_state_tolerance", &p->initial_state_tolerance_s, d.initial_state_tolerance_s,
+        p->initial_state_tolerance_s >= 0.0, ">= 0");
+  auto check_int = [&problems](const char* name, int* value, int fallback) {
+    if (*value >= 1) return;
+    problems.push_back("~" + std::string(name) + " = " + std::to_string(*value) + " is invalid (>= 1): the default " +
+                       std::to_string(fallback) + " is used");
+    *value = fallback;
+  };
+  check_int("queue_size", &p->queue_size, d.queue_size);
+  check_int("imu_queue_size", &p->imu_queue_size, d.imu_queue_size);
+  check_int("altimeter_queue_size", &p->altimeter_queue_size, d.altimeter_queue_size);
+  if (p->max_path_length < 0) {
+    problems.push_back("~max_path_length = " + std::to_string(p->max_path_length) +
+                       " is invalid (>= 0): the default " + std::to_string(d.max_path_length) + " is used");
+    p->max_path_length = d.max_path_length;
+  }
+  return problems;
+}
+
+NodeletParams loadNodeletParams(const ros::NodeHandle& nh, std::vector<std::string>* problems) {
   NodeletParams p;
   nh.param("world_frame", p.world_frame, p.world_frame);
   nh.param("camera_frame", p.camera_frame, p.camera_frame);
@@ -129,10 +172,8 @@ NodeletParams loadNodeletParams(const ros::NodeHandle& nh) {
   nh.param("initial_state_tolerance", p.initial_state_tolerance_s, p.initial_state_tolerance_s);
   nh.param("imu_queue_size", p.imu_queue_size, p.imu_queue_size);
   nh.param("altimeter_queue_size", p.altimeter_queue_size, p.altimeter_queue_size);
-  if (p.queue_size < 1) p.queue_size = 1;
-  if (p.imu_queue_size < 1) p.imu_queue_size = 1;
-  if (p.altimeter_queue_size < 1) p.altimeter_queue_size = 1;
-  if (!(p.initial_state_tolerance_s >= 0.0)) p.initial_state_tolerance_s = 0.0;
+  const std::vector<std::string> invalid = validateNodeletParams(&p);
+  if (problems) *problems = invalid;
   return p;
 }
 

@@ -41,9 +41,8 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info) {
   if (info.width == 0 || info.height == 0) return "camera_info has no image size (width/height 0)";
   for (double d : info.D)
     if (!std::isfinite(d)) return "camera_info distortion coefficients are not finite";
-  const std::string& model = info.distortion_model;
-  if (!model.empty() && model != "plumb_bob" && model != "equidistant")
-    return "unsupported distortion model '" + model + "' (accepted: plumb_bob, equidistant)";
+  // The rest (distortion model and length, principal point, field of view, invertible distortion) is the
+  // core's PinholeCamera::isValid(), shared with vo_run and the dataset readers.
   std::string why;
   if (!fromCameraInfo(info).isValid(&why)) return "camera_info rejected: " + why;
   return "";
@@ -59,6 +58,26 @@ std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_sat
     return std::string(mean[0] < 10.0 ? "black" : "blank") + " frame: grey-level mean " +
            std::to_string(mean[0]) + ", stddev " + std::to_string(stddev[0]) + " (no texture to track)";
   return "";
+}
+
+bool checkOutputPose(const Pose& T, std::string* why) {
+  if (!T.matrix().allFinite()) {
+    *why = "the pipeline returned a non-finite pose";
+    return false;
+  }
+  const Eigen::Matrix3d R = T.linear();
+  const double orthonormality = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
+  if (!(orthonormality < 1e-6) || !(R.determinant() > 0.0)) {
+    *why = "the pipeline returned a pose whose attitude is not a rotation (|R^T R - I| = " +
+           std::to_string(orthonormality) + ", det " + std::to_string(R.determinant()) + ")";
+    return false;
+  }
+  if (!(T.translation().norm() < kMaxOutputPositionMagnitude)) {
+    *why = "the pipeline returned a position " + std::to_string(T.translation().norm()) +
+           " units from the origin (diverged)";
+    return false;
+  }
+  return true;
 }
 
 VoStatus toVoStatus(const FrameResult& r, const std_msgs::Header& header) {

@@ -53,7 +53,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
-    params_ = loadNodeletParams(pnh);
+    std::vector<std::string> param_problems;
+    params_ = loadNodeletParams(pnh, &param_problems);
+    for (const std::string& problem : param_problems) NODELET_ERROR_STREAM("parameter rejected: " << problem);
     reporter_ =
         std::make_unique<StatusReporter>(nh, pnh, getName(), params_.min_rate_hz, params_.max_rate_hz, 30);
     status_pub_ = nh.advertise<VoStatus>("vo/status", 10);
@@ -100,12 +102,44 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
         it.subscribeCamera("camera/image_raw", params_.queue_size, &VisualOdometryNodelet::imageCb, this);
   }
 
+  /// Every callback body runs through here: an exception of any type (OpenCV, Ceres, the allocator, ...) is
+  /// logged and reported in vo/status with its cause, never let out to the nodelet manager (which would abort
+  /// every nodelet it holds). `header` non-null: the frame is rejected (BAD_INPUT on its stamp).
+  template <class Body>
+  void contained(const char* where, const std_msgs::Header* header, Body&& body) {
+    std::string why;
+    try {
+      body();
+      return;
+    } catch (const std::exception& e) {
+      why = e.what();
+    } catch (...) {
+      why = "unknown exception";
+    }
+    try {
+      const std::string what = std::string(where) + " failed: " + why;
+      NODELET_ERROR_STREAM_THROTTLE(5, what);
+      if (header) {
+        reject(what + " (frame rejected, the node continues)", *header);
+      } else {
+        std::lock_guard<std::mutex> lock(pending_mutex_);
+        callback_problem_ = what;
+      }
+    } catch (...) {
+    }
+  }
+
   void imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) {
+    std_msgs::Header header = image->header;
+    header.frame_id = params_.world_frame;
+    contained("image processing", &header, [&] { processImage(image, info, header); });
+  }
+
+  void processImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+                    const std_msgs::Header& header) {
     const Clock::time_point start = Clock::now();
     last_frame_wall_ = start;
     ++counts_.num_images;
-    std_msgs::Header header = image->header;
-    header.frame_id = params_.world_frame;
     const std::string child = childFrame(image->header.frame_id);
     cv::Mat gray;
     std::string why = checkCameraInfo(*info);
@@ -151,12 +185,28 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       const Clock::time_point process_start = Clock::now();
       result = pipeline_->process(t, gray);
       process_time = Clock::now() - process_start;
-    } catch (const std::exception& e) {
+    } catch (const std::invalid_argument& e) {  // documented: the pipeline's state is unchanged
       return reject(std::string("pipeline rejected the image: ") + e.what(), header);
+    } catch (const std::exception& e) {
+      // Anything else (OpenCV, Ceres, memory) may have stopped the pipeline half-way through the frame: its
+      // tracks are dropped and it re-initialises from the current pose at the next image (no jump).
+      if (pipeline_) pipeline_->restartTracking();
+      return reject(std::string("pipeline failed on the image (") + e.what() +
+                        "): frame rejected, tracking restarts from the current pose",
+                    header);
     }
     if (!started_) pending_state_.reset();  // consumed by the first image (applyInitialState)
     started_ = true;
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);
+    // The last guard: a pose that is not finite, not rigid (a non-unit quaternion) or absurdly far is never
+    // published; the frame is reported LOST with the reason, the outputs keep their last pose.
+    std::string untrusted;
+    if (result.processed && !checkOutputPose(result.T_world_cam, &untrusted)) {
+      NODELET_ERROR_STREAM_THROTTLE(5, "pose not published: " << untrusted);
+      result.state = TrackingState::kLost;
+      result.message = "pose not published: " + untrusted + (result.message.empty() ? "" : "; " + result.message);
+      result.processed = false;
+    }
     const bool published = result.processed && publishPose(result, header, child);
     if (result.processed && !result.map_events.empty() && map_events_pub_.getNumSubscribers() > 0)
       publishMapEvents(result, header, image->header, gray);
@@ -292,11 +342,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   /// Pose, odometry, path, map points and tf of a processed frame; false if the pose was not finite (held).
   bool publishPose(const FrameResult& result, const std_msgs::Header& header, const std::string& child) {
-    Pose T_world_cam = result.T_world_cam;
-    if (!T_world_cam.matrix().allFinite()) {
-      NODELET_ERROR_THROTTLE(5, "the pipeline returned a non-finite pose: holding the last pose");
-      T_world_cam = last_pose_;
-    }
+    const Pose& T_world_cam = result.T_world_cam;
     Pose T_world_child = T_world_cam;
     if (!params_.base_frame.empty()) {
       try {
@@ -487,6 +533,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(pending_mutex_);
       if (!reconfigure_problem_.empty()) append(reconfigure_problem_);
       reconfigure_problem_.clear();
+      if (!callback_problem_.empty()) append(callback_problem_);
+      callback_problem_.clear();
     }
     imu_problem_.clear();
     altimeter_problem_.clear();
@@ -544,7 +592,10 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (pipeline_) *note += (note->empty() ? "" : "; ") + what;
   }
 
-  void reconfigureCb(VoReconfigureConfig& knobs, uint32_t /*level*/) {
+  void reconfigureCb(VoReconfigureConfig& knobs, uint32_t level) {
+    contained("reconfigure", nullptr, [&] { reconfigureBody(knobs, level); });
+  }
+  void reconfigureBody(VoReconfigureConfig& knobs, uint32_t /*level*/) {
     try {
       VoConfig next = config_;
       next.detector.num_features = knobs.num_features;
@@ -567,7 +618,13 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
   }
 
-  bool resetCb(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  bool resetCb(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res) {
+    res.success = false;
+    contained("vo/reset", nullptr, [&] { resetBody(req, res); });
+    if (!res.success && res.message.empty()) res.message = "vo/reset failed (see vo/status)";
+    return true;
+  }
+  void resetBody(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
     // A fresh pipeline at the next image: no handed-over state survives a reset (a new one may be sent).
     pipeline_.reset();
     started_ = false;
@@ -588,11 +645,13 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
         "visual odometry reset: the next image starts a new trajectory at the origin (or at a state handed "
         "over on nav/initial_state since)";
     NODELET_INFO_STREAM(res.message);
-    return true;
   }
 
   /// Once a second: diagnostics, and a BAD_INPUT status while no synchronised image + camera_info arrives.
-  void watchdogCb(const ros::WallTimerEvent&) {
+  void watchdogCb(const ros::WallTimerEvent& event) {
+    contained("watchdog", nullptr, [&] { watchdogBody(event); });
+  }
+  void watchdogBody(const ros::WallTimerEvent&) {
     const double idle_s = std::chrono::duration<double>(Clock::now() - last_frame_wall_).count();
     std::string problem = config_problem_;
     if (problem.empty() && idle_s > 2.0) {
@@ -609,11 +668,14 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     reporter_->tick();
   }
 
-  void infoOnlyCb(const sensor_msgs::CameraInfoConstPtr&) { ++info_count_; }
+  void infoOnlyCb(const sensor_msgs::CameraInfoConstPtr&) noexcept { ++info_count_; }
 
   /// Buffered until the image it precedes; once the pipeline has an inertial state it vouches for, given at
   /// once and followed by the IMU-rate nav/odometry.
   void imuCb(const sensor_msgs::ImuConstPtr& msg) {
+    contained("IMU callback", nullptr, [&] { imuBody(msg); });
+  }
+  void imuBody(const sensor_msgs::ImuConstPtr& msg) {
     ++counts_.num_imu_msgs;
     if (!config_.imu.enabled || !config_problem_.empty()) return;
     try {
@@ -650,6 +712,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   /// Buffered until the image it precedes (the pipeline reads the altimeter causally per image).
   void altimeterCb(const sensor_msgs::RangeConstPtr& msg) {
+    contained("altimeter callback", nullptr, [&] { altimeterBody(msg); });
+  }
+  void altimeterBody(const sensor_msgs::RangeConstPtr& msg) {
     ++counts_.num_altimeter_msgs;
     if (!config_.altimeter.enabled || !config_problem_.empty()) return;
     try {
@@ -674,6 +739,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   /// The guidance handover: kept until the first image of the next trajectory (now, or after vo/reset).
   void initialStateCb(const nav_msgs::OdometryConstPtr& msg) {
+    contained("initial state callback", nullptr, [&] { initialStateBody(msg); });
+  }
+  void initialStateBody(const nav_msgs::OdometryConstPtr& msg) {
     try {
       std::string why;
       InitialState checked;
@@ -744,6 +812,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   SampleBuffer<AltimeterSample> altimeter_buffer_;
   std::string imu_problem_, altimeter_problem_, initial_state_problem_;  ///< since the last status
   std::string reconfigure_problem_;  ///< a refused reconfiguration, until the next status (pending_mutex_)
+  std::string callback_problem_;     ///< an exception contained in a callback, until the next status (same)
   Eigen::Vector3d last_gyro_radps_ = Eigen::Vector3d::Zero();            ///< latest gyro sample given
   bool have_gyro_ = false;
   Eigen::Matrix3d gyro_covariance_ = Eigen::Matrix3d::Identity();

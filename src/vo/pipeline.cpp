@@ -148,9 +148,13 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
   camera_ = camera;
   K_ = camera_.K();
   map_.setObservationSigma(kPointObservationSigmaPx / camera_.fx());
+  // Pixels of the old intrinsics cannot be matched to the new ones.
+  restartTracking();
+}
+
+void Pipeline::restartTracking() {
   tracker_.reset();
-  // Pixels of the old intrinsics cannot be matched to the new ones: continue from the current pose as after a
-  // loss, so the trajectory does not jump.
+  // Continue from the current pose as after a loss, so the trajectory does not jump.
   if (stage_ != PipelineStage::kInitialising) stage_ = PipelineStage::kRecovering;
   reference_.valid = false;
   last_good_.valid = false;
@@ -794,7 +798,16 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
   // result land at the same frame on every run: offline runs stay reproducible, and in real time (an image
   // every 100 ms against a ~10 ms adjustment) the wait is zero.
   async_ba_->waitIdle();
-  auto finished = async_ba_->takeResult();
+  std::optional<std::pair<BaProblem, BaSummary>> finished;
+  try {
+    finished = async_ba_->takeResult();
+  } catch (const std::exception& e) {
+    // A fault of the optimiser thread stays there: its result is discarded, the map keeps the poses it had
+    // (the next keyframe submits a new adjustment), and the frame says so.
+    result->message += std::string(result->message.empty() ? "" : "; ") +
+                       "bundle adjustment failed in the optimiser thread (" + e.what() + "): result discarded";
+    return;
+  }
   if (!finished || !finished->second.converged) return;
   map_.applyBaResult(finished->first, finished->second.outliers);
   result->times.ba_ms = msSince(start);

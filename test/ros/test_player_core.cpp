@@ -5,6 +5,10 @@
 #include <map>
 #include <set>
 
+#include <sys/resource.h>
+
+#include <csignal>
+
 #include <gtest/gtest.h>
 
 #include <rosbag/bag.h>
@@ -383,6 +387,42 @@ TEST(PlayerBag, SyntheticBagCarriesImuAndAltimeter) {
   const std::string bag = outputDir("player_bag_synthetic_out") + "/synthetic.bag";
   EXPECT_EQ(writeBag(dataset, PlayerOptions(), bag), 5 * 20u + 381u + 19u);
   checkBag(bag, dataset);
+}
+
+TEST(PlayerBag, DiskFullIsAnErrorNotATerminate) {
+  // Issue 12: when the disk fills, rosbag throws BagIOException and Bag::~Bag() throws again while closing
+  // the unfinished bag: std::terminate. /dev/full fails every write with ENOSPC, as a full disk does (a real
+  // full filesystem needs a mount, which CI cannot do). writeBag must throw one error that says what failed.
+  const Dataset dataset = openKitti();
+  try {
+    writeBag(dataset, PlayerOptions(), "/dev/full");
+    ADD_FAILURE() << "writing to /dev/full succeeded";
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/dev/full"), std::string::npos) << what;
+    EXPECT_NE(what.find("writing the bag failed"), std::string::npos) << what;
+  }
+  // Mid-stream: the file may not grow past 64 kB (RLIMIT_FSIZE; writes then fail with EFBIG, SIGXFSZ
+  // ignored), so the header is written and a later chunk fails, as when the disk fills during a recording.
+  const std::string limited = outputDir("player_bag_fsize") + "/kitti.bag";
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  const sighandler_t old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = saved;
+  small.rlim_cur = 64 * 1024;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string error;
+  try {
+    writeBag(dataset, PlayerOptions(), limited);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(error.find("writing the bag failed: " + limited), std::string::npos) << error;
+  // The process is still usable: the next bag is written normally.
+  const std::string bag = outputDir("player_bag_after_full") + "/kitti.bag";
+  EXPECT_EQ(writeBag(dataset, PlayerOptions(), bag), 5 * kKittiFrames);
 }
 
 TEST(PlayerCore, InitialStateIsTheGroundTruthAtTheFirstImagePlayed) {

@@ -9,7 +9,8 @@
 /// part 1).
 ///
 /// Cases (~case): encoding, info_missing, size_mismatch, bad_intrinsics, black, saturated, stamps, dropped,
-/// resolution, and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
+/// resolution; issue 12: distortion (plumb_bob with a D of 3, 6, 100), mono16_bigendian (converted, tracked),
+/// absurd_intrinsics (cx = 1e6, 1e9, fx = 1e9: rejected, then good camera_info again); and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
 /// the dataset's IMU and altimeter streams published before each image (lock step: the nodelet has queued
 /// them before the image is sent), the initial state handed over, and bad samples in place of part 2's
 /// image: non-finite, REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
@@ -281,6 +282,37 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
     sensor_msgs::CameraInfo zero_info = info(stamp(++next));
     zero_info.K.fill(0.0);
     expectBad(send(imageMsg(image(next), stamp(next), "mono8"), zero_info), "zero");
+    ++next;
+  } else if (case_ == "distortion") {  // issue 12: cv::undistortPoints asserted and the manager aborted
+    for (size_t n : {3u, 6u, 100u}) {
+      sensor_msgs::CameraInfo short_d = info(stamp(next));
+      short_d.distortion_model = "plumb_bob";
+      short_d.D.assign(n, 0.01);
+      expectBad(send(imageMsg(image(next), stamp(next), "mono8"), short_d), "plumb_bob distortion needs 5");
+      ++next;
+    }
+  } else if (case_ == "mono16_bigendian") {  // issue 12: cv_bridge gave 2 channels, checkExposure asserted
+    for (const size_t end = next + 3; next < end; ++next) {
+      cv::Mat m16;
+      image(next).convertTo(m16, CV_16U, 256.0);
+      sensor_msgs::ImagePtr msg = imageMsg(m16, stamp(next), "mono16");
+      for (size_t b = 0; b + 1 < msg->data.size(); b += 2) std::swap(msg->data[b], msg->data[b + 1]);
+      msg->is_bigendian = 1;
+      const VoStatus s = send(msg, info(stamp(next)));
+      EXPECT_TRUE(s.processed) << s.state_name << ": " << s.message;
+      EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+    }
+  } else if (case_ == "absurd_intrinsics") {
+    // Issue 12: cx = 1e6 .. 1e9 for some frames corrupted the poses (1e43, non-unit quaternions) for good.
+    for (double cx : {1e6, 1e9}) {
+      sensor_msgs::CameraInfo absurd = info(stamp(next));
+      absurd.K[2] = absurd.P[2] = cx;
+      expectBad(send(imageMsg(image(next), stamp(next), "mono8"), absurd), "principal point");
+      ++next;
+    }
+    sensor_msgs::CameraInfo narrow = info(stamp(next));
+    narrow.K[0] = narrow.K[4] = narrow.P[0] = narrow.P[5] = 1e9;
+    expectBad(send(imageMsg(image(next), stamp(next), "mono8"), narrow), "field of view");
     ++next;
   } else if (case_ == "black") {
     for (const size_t end = next + 3; next < end; ++next)

@@ -4,6 +4,7 @@
 /// IMU and altimeter inputs, map points -> PointCloud2.
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -13,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "planetary_vo/ros_io/conversions.h"
+#include "planetary_vo/ros_io/ros_params.h"
 #include "planetary_vo/ros_io/sample_buffer.h"
 #include "planetary_vo/ros_io/vo_conversions.h"
 
@@ -46,6 +48,39 @@ TEST(VoConversions, EveryEncodingBecomesTheSameGray) {
     ASSERT_EQ(out.type(), CV_8UC1) << encoding;
     EXPECT_EQ(cv::norm(out, gray, cv::NORM_INF), 0.0) << encoding;
   }
+}
+
+TEST(VoConversions, Mono16BigEndianIsSwappedNotTwoChannels) {
+  // Issue 12: cv_bridge returned 2 channels for a big-endian mono16 image, and the exposure check asserted on
+  // them. The bytes of each pixel are swapped into the host's order; the gray is the same as little-endian.
+  const cv::Mat gray = ramp();
+  sensor_msgs::Image msg;
+  msg.encoding = "mono16";
+  msg.width = gray.cols;
+  msg.height = gray.rows;
+  msg.step = 2 * gray.cols;
+  msg.is_bigendian = 1;
+  for (int i = 0; i < gray.rows * gray.cols; ++i) {
+    const uint16_t v = uint16_t(gray.data[i] * 256 + 77);  // 77: the low byte, dropped by the 8-bit scaling
+    msg.data.push_back(uint8_t(v >> 8));
+    msg.data.push_back(uint8_t(v & 0xff));
+  }
+  cv::Mat out;
+  std::string why;
+  ASSERT_TRUE(toGray8(boost::make_shared<sensor_msgs::Image>(msg), &out, &why)) << why;
+  ASSERT_EQ(out.type(), CV_8UC1);
+  ASSERT_EQ(out.size(), gray.size());
+  EXPECT_EQ(cv::norm(out, gray, cv::NORM_INF), 0.0);
+  // Row padding (step > width * 2) is honoured too.
+  sensor_msgs::Image padded = msg;
+  padded.step = msg.step + 4;
+  padded.data.clear();
+  for (int r = 0; r < gray.rows; ++r) {
+    padded.data.insert(padded.data.end(), msg.data.begin() + r * msg.step, msg.data.begin() + (r + 1) * msg.step);
+    padded.data.insert(padded.data.end(), 4, 0xEE);
+  }
+  ASSERT_TRUE(toGray8(boost::make_shared<sensor_msgs::Image>(padded), &out, &why)) << why;
+  EXPECT_EQ(cv::norm(out, gray, cv::NORM_INF), 0.0);
 }
 
 TEST(VoConversions, ColourWeightsAreBt601) {
@@ -93,13 +128,77 @@ TEST(VoConversions, CameraInfoChecks) {
   bad.width = 0;
   EXPECT_NE(checkCameraInfo(bad), "");
   bad = good;
-  bad.distortion_model = "rational_polynomial";
-  bad.D.assign(8, 0.1);
+  bad.distortion_model = "kannala_brandt";
+  bad.D.assign(4, 0.1);
   EXPECT_NE(checkCameraInfo(bad).find("unsupported distortion"), std::string::npos);
+  // Issue 12: the number of coefficients per model (a plumb_bob D of 3 made cv::undistortPoints assert and
+  // abort the manager), the principal point, the field of view; rational_polynomial is supported.
+  sensor_msgs::CameraInfo rational = good;
+  rational.distortion_model = "rational_polynomial";
+  rational.D = {0.1, 0.01, 0.0, 0.0, 0.001, 0.1, 0.01, 0.001};
+  EXPECT_EQ(checkCameraInfo(rational), "");
+  rational.D.resize(5);
+  EXPECT_NE(checkCameraInfo(rational).find("needs 8 coefficients, got 5"), std::string::npos);
+  for (size_t n : {3u, 6u, 7u, 100u}) {
+    bad = good;
+    bad.D.assign(n, 0.01);
+    EXPECT_NE(checkCameraInfo(bad).find("plumb_bob distortion needs 5 coefficients"), std::string::npos) << n;
+  }
+  bad = good;
+  bad.K[2] = 1e9;
+  EXPECT_NE(checkCameraInfo(bad).find("principal point"), std::string::npos) << checkCameraInfo(bad);
+  bad = good;
+  bad.K[0] = bad.K[4] = 1e9;
+  EXPECT_NE(checkCameraInfo(bad).find("field of view"), std::string::npos) << checkCameraInfo(bad);
   sensor_msgs::CameraInfo fisheye = good;
   fisheye.distortion_model = "equidistant";
   fisheye.D = {0.1, 0.01, 0.0, 0.0};
   EXPECT_EQ(checkCameraInfo(fisheye), "");
+}
+
+TEST(VoConversions, OutputPoseGuard) {
+  // Issue 12: absurd intrinsics drove positions to 1e43 and quaternions off unit norm, published as TRACKING.
+  std::string why;
+  Pose good = Pose::Identity();
+  good.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  good.translation() = Eigen::Vector3d(1e3, -2e4, 5e5);
+  EXPECT_TRUE(checkOutputPose(good, &why)) << why;
+  Pose bad = good;
+  bad.translation().x() = std::nan("");
+  EXPECT_FALSE(checkOutputPose(bad, &why));
+  EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
+  bad = good;
+  bad.linear() *= 1.01;  // its quaternion would not be unit
+  EXPECT_FALSE(checkOutputPose(bad, &why));
+  EXPECT_NE(why.find("not a rotation"), std::string::npos) << why;
+  bad = good;
+  bad.linear().col(2) *= -1.0;  // a reflection
+  EXPECT_FALSE(checkOutputPose(bad, &why));
+  bad = good;
+  bad.translation() = Eigen::Vector3d(1e43, 0, 0);
+  EXPECT_FALSE(checkOutputPose(bad, &why));
+  EXPECT_NE(why.find("diverged"), std::string::npos) << why;
+}
+
+TEST(VoConversions, InvalidNodeletParametersKeepTheirDefaults) {
+  // Issue 12: ~position_sigma_m: .nan gave NaN covariances on every vo/odometry message.
+  const NodeletParams defaults;
+  NodeletParams p;
+  p.position_sigma_m = std::nan("");
+  p.orientation_sigma_rad = -1.0;
+  p.max_saturated_ratio = -1.0;  // would reject every frame
+  p.min_exposure_stddev = std::numeric_limits<double>::infinity();
+  p.queue_size = 0;
+  const std::vector<std::string> problems = validateNodeletParams(&p);
+  ASSERT_EQ(problems.size(), 5u);
+  EXPECT_NE(problems[0].find("~position_sigma_m = nan is invalid"), std::string::npos) << problems[0];
+  EXPECT_EQ(p.position_sigma_m, defaults.position_sigma_m);
+  EXPECT_EQ(p.orientation_sigma_rad, defaults.orientation_sigma_rad);
+  EXPECT_EQ(p.max_saturated_ratio, defaults.max_saturated_ratio);
+  EXPECT_EQ(p.min_exposure_stddev, defaults.min_exposure_stddev);
+  EXPECT_EQ(p.queue_size, defaults.queue_size);
+  NodeletParams ok;
+  EXPECT_TRUE(validateNodeletParams(&ok).empty());
 }
 
 TEST(VoConversions, ExposureChecks) {

@@ -28,7 +28,8 @@ class PinholeCamera {
   double fy() const { return fy_; }
   double cx() const { return cx_; }
   double cy() const { return cy_; }
-  /// "" or "none" (no distortion), "plumb_bob" (k1 k2 p1 p2 k3) or "equidistant" (k1 k2 k3 k4).
+  /// "" or "none" (no distortion), "plumb_bob" (k1 k2 p1 p2 k3), "rational_polynomial" (k1 k2 p1 p2 k3 k4 k5
+  /// k6) or "equidistant" (k1 k2 k3 k4).
   const std::string& distortionModel() const { return distortion_model_; }
   const std::vector<double>& distortion() const { return distortion_; }
   bool hasDistortion() const;
@@ -36,9 +37,20 @@ class PinholeCamera {
   Eigen::Matrix3d K() const;
   cv::Matx33d Kcv() const;
 
-  /// Finite positive focal lengths, finite principal point, positive size, known distortion model.
-  /// On failure, `why` (if given) says what is wrong.
+  /// Plausible field of view of either axis, 2 atan(size / 2f): outside it a focal length is a unit or
+  /// calibration error (a 1 mm lens given as 1e9 px, a focal length in metres).
+  static constexpr double kMinFieldOfViewDeg = 0.1;
+  static constexpr double kMaxFieldOfViewDeg = 170.0;
+
+  /// Usable by the geometry: positive size; finite positive focal lengths giving a field of view within
+  /// [kMinFieldOfViewDeg, kMaxFieldOfViewDeg] on both axes; principal point inside the image (pixel edges
+  /// included); a known distortion model with exactly its number of finite coefficients (plumb_bob 5,
+  /// rational_polynomial 8, equidistant 4; none at all = no distortion); and a distortion that is invertible
+  /// over the image (distortionInvertible()). On failure, `why` (if given) says what is wrong.
   bool isValid(std::string* why = nullptr) const;
+  /// Whether the distortion maps the ideal radius strictly increasingly onto the measured radius all the way
+  /// to each image corner, so that every pixel of the image has one ideal pixel; `why` says where not.
+  bool distortionInvertible(std::string* why = nullptr) const;
 
   /// Projects a point in the camera optical frame (z > 0) to ideal (undistorted) pixel coordinates.
   Eigen::Vector2d project(const Eigen::Vector3d& p_in_cam) const;

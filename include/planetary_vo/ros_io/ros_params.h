@@ -59,7 +59,14 @@ struct NodeletParams {
   int imu_queue_size = 1000;       ///< ~imu_queue_size: imu subscriber queue (messages)
   int altimeter_queue_size = 100;  ///< ~altimeter_queue_size
 };
-NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh);
+/// Reads the nodelet's parameters; each invalid one (validateNodeletParams) keeps its default and is named in
+/// *problems (if given), which the nodelet logs as an error at startup.
+NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh, std::vector<std::string>* problems = nullptr);
+/// @brief Sets every invalid field of `p` back to its default (NodeletParams{}): NaN or infinite numbers
+/// (`~position_sigma_m: .nan` made every vo/odometry covariance NaN), non-positive sigmas and rates, a
+/// lost_sigma_factor below 1, a negative min_exposure_stddev, a max_saturated_ratio outside (0, 1], a
+/// max_frame_gap_factor not above 1, queue sizes below 1. Returns one message per field reset.
+std::vector<std::string> validateNodeletParams(NodeletParams* p);
 
 /// The YAML text of the given sections of the private namespace (scalars only; a list or map value is
 /// written so that the core loader names the key as of the wrong type).

@@ -25,14 +25,21 @@
 
 namespace planetary_vo::ros_io {
 
-/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size, a
-/// supported distortion model ("", plumb_bob, rational_polynomial is not) with the right number of finite
-/// coefficients. Returns "" when usable, else what is wrong.
+/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size, finite
+/// coefficients, then PinholeCamera::isValid() of fromCameraInfo() (distortion model and its number of
+/// coefficients, principal point inside the image, plausible field of view, distortion invertible over the
+/// image). Returns "" when usable, else what is wrong.
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
 
 /// @brief Checks that an 8-bit image is neither blank (grey-level stddev below min_stddev: black, or any
 /// uniform frame) nor saturated (more than max_saturated_ratio of the pixels at 255). Returns "" when usable.
 std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
+
+/// Largest position magnitude (VO units) a published pose may have: beyond it the estimate has diverged.
+constexpr double kMaxOutputPositionMagnitude = 1e9;
+/// @brief The final guard before a pose is published: finite, a rotation (orthonormal within 1e-6, det +1, so
+/// its quaternion is unit) and a position within kMaxOutputPositionMagnitude. False with *why otherwise.
+bool checkOutputPose(const Pose& T_world_cam, std::string* why);
 
 /// FrameResult -> VoStatus (state, counts, motion model, times, scale confidence, scale source, metric,
 /// inertial, velocity and biases, message). The counters, mode, initial_state_applied and ros_overhead_ms are

@@ -118,6 +118,11 @@ class Pipeline {
   /// the chain re-initialises from the current pose (state lost, then recovered), without a jump.
   void setCamera(const PinholeCamera& camera);
 
+  /// Drops the tracks and re-initialises from the current pose (state lost, then recovered, without a jump),
+  /// as after a camera change: for a caller that cannot trust the last frame (an exception part-way through
+  /// process(), e.g. from OpenCV or Ceres).
+  void restartTracking();
+
   /// @brief Applies a configuration change to the running pipeline in place, between two process() calls:
   /// tracks, map, trajectory, scale (and its confidence) and inertial state are all kept, so the trajectory
   /// continues without a jump and without a new scale. Runtime-changeable fields (every other field of

@@ -81,6 +81,16 @@ TEST(DatasetErrors, InconsistentFiles) {
       dir3 + "/camera.yaml",
       "image_width: 16\nimage_height: 12\ncamera_matrix:\n  data: [-5, 0, 8, 0, 5, 6, 0, 0, 1]\n");
   EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir3); }, "invalid camera: focal length"));
+  // Issue 12: finite but absurd intrinsics and a distortion vector of the wrong length are refused when the
+  // dataset opens (vo_run with cx = 1e9 used to exit 0 with non-unit quaternions).
+  const std::string k = "image_width: 16\nimage_height: 12\ncamera_matrix:\n  data: [";
+  test::writeText(dir3 + "/camera.yaml", k + "14.5, 0, 1e9, 0, 14.5, 5.5, 0, 0, 1]\n");
+  EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir3); }, "invalid camera: principal point"));
+  test::writeText(dir3 + "/camera.yaml", k + "1e9, 0, 7.5, 0, 1e9, 5.5, 0, 0, 1]\n");
+  EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir3); }, "field of view"));
+  test::writeText(dir3 + "/camera.yaml", k + "14.5, 0, 7.5, 0, 14.5, 5.5, 0, 0, 1]\ndistortion_model: plumb_bob\n"
+                                             "distortion_coefficients:\n  data: [0.01, 0.001, 0.0001]\n");
+  EXPECT_TRUE(throwsDatasetError([&] { Dataset::open(dir3); }, "plumb_bob distortion needs 5 coefficients, got 3"));
 }
 
 TEST(DatasetErrors, UnreadableImageAndKittiPoseCount) {

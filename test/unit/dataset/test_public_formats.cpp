@@ -73,7 +73,8 @@ TEST(KittiReader, LabelledCalibTimesFileAndBenchmarkPoseLayout) {
   for (int i = 0; i < 3; ++i) {
     char name[64];
     std::snprintf(name, sizeof(name), "/image_0/%06d.png", i);
-    ASSERT_TRUE(cv::imwrite(seq + name, test::syntheticImage(40, 30, CV_8UC1, i)));
+    // The size of sequence 07's images: its principal point must be inside them (PinholeCamera::isValid()).
+    ASSERT_TRUE(cv::imwrite(seq + name, test::syntheticImage(1226, 370, CV_8UC1, i)));
   }
   test::writeText(seq + "/calib.txt",
                   "P0: 7.070912e+02 0 6.018873e+02 0 0 7.070912e+02 1.831104e+02 0 0 0 1 0\n"
@@ -84,7 +85,7 @@ TEST(KittiReader, LabelledCalibTimesFileAndBenchmarkPoseLayout) {
   const Dataset d = Dataset::open(seq);
   EXPECT_EQ(d.name(), "07");
   ASSERT_EQ(d.size(), 3u);
-  EXPECT_EQ(d.camera(), PinholeCamera(40, 30, 707.0912, 707.0912, 601.8873, 183.1104));
+  EXPECT_EQ(d.camera(), PinholeCamera(1226, 370, 707.0912, 707.0912, 601.8873, 183.1104));
   EXPECT_DOUBLE_EQ(d.timestamp(1), 0.1036211);
   ASSERT_EQ(d.groundTruth().size(), 3u);
   EXPECT_DOUBLE_EQ(d.groundTruth()[2].timestamp_s, 0.2072235);  // poses take the times.txt stamps
@@ -116,11 +117,13 @@ TEST(EurocReader, CameraPosesFromBodyGroundTruthAndExtrinsic) {
   std::string t_bs_text;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) t_bs_text += (r + c ? ", " : "") + std::to_string(T_BS.matrix()(r, c));
+  // EuRoC's cam0 intrinsics with the principal point moved into the 48x32 test images (the original's, at
+  // (367, 248), is outside them, which PinholeCamera::isValid() rejects).
   char yaml[2048];
   std::snprintf(yaml, sizeof(yaml),
                 "# General sensor definitions.\nsensor_type: camera\ncomment: VI-Sensor cam0 (MT9M034)\n\n"
                 "T_BS:\n  cols: 4\n  rows: 4\n  data: [%s]\n\nrate_hz: 20\nresolution: [48, 32]\n"
-                "camera_model: pinhole\nintrinsics: [458.654, 457.296, 367.215, 248.375] #fu, fv, cu, cv\n"
+                "camera_model: pinhole\nintrinsics: [458.654, 457.296, 23.215, 16.375] #fu, fv, cu, cv\n"
                 "distortion_model: radial-tangential\n"
                 "distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n",
                 t_bs_text.c_str());
@@ -170,7 +173,7 @@ TEST(EurocReader, CameraPosesFromBodyGroundTruthAndExtrinsic) {
     const Dataset d = Dataset::open(dir);
     EXPECT_EQ(d.format(), DatasetFormat::kEuroc);
     EXPECT_EQ(d.name(), "MH_synthetic");
-    EXPECT_EQ(d.camera(), PinholeCamera(48, 32, 458.654, 457.296, 367.215, 248.375, "plumb_bob",
+    EXPECT_EQ(d.camera(), PinholeCamera(48, 32, 458.654, 457.296, 23.215, 16.375, "plumb_bob",
                                         {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0}));
     // Images 1..5 are inside the ground-truth span [12.3 ms, 260 ms]; image 0 (at 0 ms) is dropped.
     ASSERT_EQ(d.size(), 5u);
