@@ -11,7 +11,7 @@ Each (dataset, target) pair is one trial. Trials on one dataset share its map, s
 summary gives both counts. Prints a table and a summary line; --json writes every trial.
 
   scripts/hazard_campaign.py --datasets DIR [DIR ...] [--out output/hazard_campaign] [--confidence-k 2]
-                             [--targets "x,y;x,y;..."] [--reuse] [--json FILE]
+                             [--targets "x,y;x,y;..."] [--hazard-config FILE] [--reuse] [--json FILE]
 """
 import argparse
 import json
@@ -38,6 +38,7 @@ def main():
     ap.add_argument("--datasets", nargs="+", required=True)
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "hazard_campaign"))
     ap.add_argument("--config", default=os.path.join(ROOT, "config", "lunar_fused.yaml"))
+    ap.add_argument("--hazard-config", default="", help="vo_run --hazard-config (default: config/hazard.yaml's values)")
     ap.add_argument("--confidence-k", type=float, default=2.0)
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')
     ap.add_argument("--reuse", action="store_true", help="keep a dataset's existing terrain map")
@@ -56,9 +57,12 @@ def main():
         terrain = os.path.join(work, "terrain")
         os.makedirs(work, exist_ok=True)
         if not (a.reuse and os.path.exists(os.path.join(terrain, "terrain.yaml"))):
-            run([os.path.join(BIN, "vo_run"), "--dataset", dataset, "--config", a.config,
-                 "--initial-state-from-groundtruth", "--quiet", "--output", os.path.join(work, "trajectory.txt"),
-                 "--output-terrain", terrain], os.path.join(work, "vo_run.log"))
+            cmd = [os.path.join(BIN, "vo_run"), "--dataset", dataset, "--config", a.config,
+                   "--initial-state-from-groundtruth", "--quiet", "--output", os.path.join(work, "trajectory.txt"),
+                   "--output-terrain", terrain]
+            if a.hazard_config:
+                cmd += ["--hazard-config", a.hazard_config]
+            run(cmd, os.path.join(work, "vo_run.log"))
         for (x, y) in targets:
             tag = "t%+04.0f%+04.0f" % (x, y)
             js = os.path.join(work, tag + ".json")

@@ -10,8 +10,8 @@
 
 namespace planetary_vo::test {
 
-/// Absolute path of `relative` inside ../shared/data (or $PLANETARY_VO_DATA). A test that needs a missing file
-/// must fail, not skip: call requireDataFile() in an ASSERT.
+/// Absolute path of `relative` inside ../shared/data (or $PLANETARY_VO_DATA). A test that needs a missing
+/// file must fail, not skip: call requireDataFile() in an ASSERT.
 inline std::string dataPath(const std::string& relative) {
   const char* env = std::getenv("PLANETARY_VO_DATA");
   const std::string root = env && *env ? env : PLANETARY_VO_DATA_DIR;

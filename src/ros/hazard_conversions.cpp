@@ -16,8 +16,8 @@ namespace planetary_vo::ros_io {
 namespace {
 
 constexpr int kNumRasterLayers = 6;
-const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m", "elevation_sigma_m", "relief_sigma_m",
-                                                     "slope_sigma_deg", "slope_deg", "roughness_m"};
+const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
+                                                     "slope_sigma_deg", "slope_deg",         "roughness_m"};
 
 sensor_msgs::Image floatImage(const cv::Mat& layer, const std_msgs::Header& header) {
   sensor_msgs::Image img;
@@ -65,7 +65,8 @@ terrain::GridGeometry fromMapMetaData(const nav_msgs::MapMetaData& info) {
   if (!(std::isfinite(info.resolution) && info.resolution > 0.0f) || info.width == 0 || info.height == 0 ||
       !std::isfinite(info.origin.position.x) || !std::isfinite(info.origin.position.y))
     throw std::invalid_argument("grid geometry rejected: empty grid or non-positive resolution");
-  if (std::abs(std::abs(q.w) - 1.0) > 1e-9 || std::abs(q.x) > 1e-9 || std::abs(q.y) > 1e-9 || std::abs(q.z) > 1e-9)
+  if (std::abs(std::abs(q.w) - 1.0) > 1e-9 || std::abs(q.x) > 1e-9 || std::abs(q.y) > 1e-9 ||
+      std::abs(q.z) > 1e-9)
     throw std::invalid_argument("grid geometry rejected: a rotated origin is not supported");
   terrain::GridGeometry g;
   g.cell_size_m = info.resolution;
@@ -89,8 +90,9 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.max_roughness_m = config.thresholds.max_roughness_m;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
-  sensor_msgs::Image* out[kNumRasterLayers] = {&msg.elevation_m,     &msg.elevation_sigma_m, &msg.relief_sigma_m,
-                                               &msg.slope_sigma_deg, &msg.slope_deg,         &msg.roughness_m};
+  sensor_msgs::Image* out[kNumRasterLayers] = {&msg.elevation_m,    &msg.elevation_sigma_m,
+                                               &msg.relief_sigma_m, &msg.slope_sigma_deg,
+                                               &msg.slope_deg,      &msg.roughness_m};
   for (int i = 0; i < kNumRasterLayers; ++i) {
     auto it = grids.layers.find(kRasterLayers[i]);
     if (it != grids.layers.end()) *out[i] = floatImage(it->second, header);
@@ -101,11 +103,12 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
 terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
   terrain::GridSet grids;
   grids.geometry = fromMapMetaData(msg.info);
-  const sensor_msgs::Image* in[kNumRasterLayers] = {&msg.elevation_m,     &msg.elevation_sigma_m,
-                                                    &msg.relief_sigma_m,  &msg.slope_sigma_deg,
-                                                    &msg.slope_deg,       &msg.roughness_m};
+  const sensor_msgs::Image* in[kNumRasterLayers] = {&msg.elevation_m,    &msg.elevation_sigma_m,
+                                                    &msg.relief_sigma_m, &msg.slope_sigma_deg,
+                                                    &msg.slope_deg,      &msg.roughness_m};
   for (int i = 0; i < kNumRasterLayers; ++i)
-    if (!in[i]->data.empty()) grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);
+    if (!in[i]->data.empty())
+      grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);
   grids.parameters = {{"footprint_diameter_m", msg.footprint_diameter_m},
                       {"support_radius_m", msg.support_radius_m},
                       {"max_slope_deg", msg.max_slope_deg},
@@ -125,14 +128,16 @@ nav_msgs::OccupancyGrid toOccupancyGrid(const cv::Mat& hazard, const terrain::Gr
   for (int r = 0; r < geometry.rows; ++r)
     for (int c = 0; c < geometry.cols; ++c) {
       const uint8_t v = hazard.at<uint8_t>(r, c);
-      grid.data[size_t(r) * geometry.cols + c] =
-          v == terrain::kSafe ? kOccupancySafe : v == terrain::kHazard ? kOccupancyHazard : kOccupancyUnknown;
+      grid.data[size_t(r) * geometry.cols + c] = v == terrain::kSafe     ? kOccupancySafe
+                                                 : v == terrain::kHazard ? kOccupancyHazard
+                                                                         : kOccupancyUnknown;
     }
   return grid;
 }
 
-LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result, const terrain::LandingSiteParams& params,
-                               bool metric, const std_msgs::Header& header) {
+LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result,
+                               const terrain::LandingSiteParams& params, bool metric,
+                               const std_msgs::Header& header) {
   LandingSites msg;
   msg.header = header;
   msg.target.x = params.target_x_m;
@@ -218,7 +223,8 @@ visualization_msgs::MarkerArray toMarkers(const LandingSites& sites) {
     disc.color.g = 1.0f;
     disc.color.r = i == 0 ? 0.0f : 1.0f;
     markers.markers.push_back(disc);
-    visualization_msgs::Marker text = base("site_labels", int(i), visualization_msgs::Marker::TEXT_VIEW_FACING);
+    visualization_msgs::Marker text =
+        base("site_labels", int(i), visualization_msgs::Marker::TEXT_VIEW_FACING);
     text.pose.position = disc.pose.position;
     text.pose.position.z = z + 6.0;
     text.scale.z = 4.0;
@@ -233,7 +239,8 @@ visualization_msgs::MarkerArray toMarkers(const LandingSites& sites) {
   return markers;
 }
 
-sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int stride, const std_msgs::Header& header) {
+sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int stride,
+                                          const std_msgs::Header& header) {
   if (stride < 1) throw std::invalid_argument("toElevationCloud: stride must be >= 1");
   const terrain::GridGeometry& g = grids.geometry;
   const cv::Mat& elevation = grids.layers.at("elevation_m");

@@ -4,8 +4,8 @@
 /// camera/camera_info (the camera the keyframe images come from, for the densifier), vo/status (how far the
 /// navigation has got). Out: hazard/map (the rasters), hazard/occupancy (nav_msgs/OccupancyGrid: 0 safe, 100
 /// hazard, -1 unknown), hazard/landing_sites (ranked, with margins), hazard/site_poses (PoseArray),
-/// hazard/best_site (PoseStamped), hazard/markers and hazard/elevation_cloud (rviz), hazard/status. Topics and
-/// parameters: docs/ros_interface.md.
+/// hazard/best_site (PoseStamped), hazard/markers and hazard/elevation_cloud (rviz), hazard/status. Topics
+/// and parameters: docs/ros_interface.md.
 ///
 /// Everything here is glue: the estimation state is in the ROS-free terrain::HazardMapper (terrain model,
 /// densifier, hazard mask, landing sites), the conversions are free functions (hazard_conversions.h) and the
@@ -101,8 +101,9 @@ class HazardNodelet : public nodelet::Nodelet {
 
   void infoCb(const sensor_msgs::CameraInfo::ConstPtr& info) {
     try {
-      if (last_info_ && last_info_->K == info->K && last_info_->D == info->D && last_info_->width == info->width &&
-          last_info_->height == info->height && last_info_->distortion_model == info->distortion_model)
+      if (last_info_ && last_info_->K == info->K && last_info_->D == info->D &&
+          last_info_->width == info->width && last_info_->height == info->height &&
+          last_info_->distortion_model == info->distortion_model)
         return;
       mapper_->setCamera(fromCameraInfo(*info));
       last_info_ = *info;
@@ -161,7 +162,8 @@ class HazardNodelet : public nodelet::Nodelet {
     status_.num_points = static_cast<uint32_t>(mapper_->numPoints());
     status_.products_published = sequence;
     products_stamp_ = covered;
-    if (sites.sites.empty() && sites.reason != last_reason_) NODELET_INFO_STREAM("no landing site: " << sites.reason);
+    if (sites.sites.empty() && sites.reason != last_reason_)
+      NODELET_INFO_STREAM("no landing site: " << sites.reason);
     last_reason_ = sites.reason;
   }
 
@@ -191,8 +193,8 @@ class HazardNodelet : public nodelet::Nodelet {
   std::string frame_id_, last_reason_;
   bool dirty_ = false;
   ros::Time nav_stamp_, events_stamp_, products_stamp_;
-  ros::Publisher status_pub_, map_pub_, occupancy_pub_, sites_pub_, site_poses_pub_, best_site_pub_, markers_pub_,
-      cloud_pub_;
+  ros::Publisher status_pub_, map_pub_, occupancy_pub_, sites_pub_, site_poses_pub_, best_site_pub_,
+      markers_pub_, cloud_pub_;
   ros::Subscriber events_sub_, info_sub_, vo_status_sub_;
   ros::WallTimer timer_, status_timer_;
 };

@@ -58,7 +58,7 @@ class HazardRecorder {
       map_written_ = msg->sequence;
       acknowledge();
       ROS_INFO_STREAM_THROTTLE(10, "hazard_recorder: hazard/map (" << msg->cells_known << " cells known) -> "
-                                                                    << dir_ << "/terrain.yaml");
+                                                                   << dir_ << "/terrain.yaml");
     } catch (const std::exception& e) {
       ROS_ERROR_STREAM("hazard_recorder: hazard/map not written: " << e.what());
     }

@@ -14,8 +14,8 @@
 
 namespace planetary_vo::ros_io {
 
-const char* const kVoConfigSections[10] = {"detector", "tracker",           "map",      "keyframe", "motion",
-                                          "pnp",      "bundle_adjustment", "pipeline", "altimeter", "imu"};
+const char* const kVoConfigSections[10] = {"detector", "tracker",           "map",      "keyframe",  "motion",
+                                           "pnp",      "bundle_adjustment", "pipeline", "altimeter", "imu"};
 
 namespace {
 
@@ -69,7 +69,8 @@ std::string yamlFromParams(const ros::NodeHandle& private_nh, const std::vector<
 }
 
 std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
-  return yamlFromParams(private_nh, std::vector<std::string>(std::begin(kVoConfigSections), std::end(kVoConfigSections)));
+  return yamlFromParams(private_nh,
+                        std::vector<std::string>(std::begin(kVoConfigSections), std::end(kVoConfigSections)));
 }
 
 const std::vector<std::string>& hazardConfigSections() {
@@ -92,7 +93,8 @@ HazardNodeletParams loadHazardNodeletParams(const ros::NodeHandle& nh) {
   nh.param("publish_period_s", p.publish_period_s, p.publish_period_s);
   nh.param("cloud_stride", p.cloud_stride, p.cloud_stride);
   nh.param("events_queue_size", p.events_queue_size, p.events_queue_size);
-  if (!(p.publish_period_s > 0.0) || !std::isfinite(p.publish_period_s)) p.publish_period_s = HazardNodeletParams().publish_period_s;
+  if (!(p.publish_period_s > 0.0) || !std::isfinite(p.publish_period_s))
+    p.publish_period_s = HazardNodeletParams().publish_period_s;
   if (p.cloud_stride < 1) p.cloud_stride = 1;
   if (p.events_queue_size < 1) p.events_queue_size = 1;
   return p;
@@ -120,24 +122,25 @@ std::vector<std::string> validateNodeletParams(NodeletParams* p) {
     *value = fallback;
   };
   check("position_sigma_m", &p->position_sigma_m, d.position_sigma_m, p->position_sigma_m > 0.0, "> 0");
-  check("orientation_sigma_rad", &p->orientation_sigma_rad, d.orientation_sigma_rad, p->orientation_sigma_rad > 0.0,
-        "> 0");
+  check("orientation_sigma_rad", &p->orientation_sigma_rad, d.orientation_sigma_rad,
+        p->orientation_sigma_rad > 0.0, "> 0");
   check("lost_sigma_factor", &p->lost_sigma_factor, d.lost_sigma_factor, p->lost_sigma_factor >= 1.0, ">= 1");
-  check("velocity_sigma_mps", &p->velocity_sigma_mps, d.velocity_sigma_mps, p->velocity_sigma_mps > 0.0, "> 0");
+  check("velocity_sigma_mps", &p->velocity_sigma_mps, d.velocity_sigma_mps, p->velocity_sigma_mps > 0.0,
+        "> 0");
   check("min_exposure_stddev", &p->min_exposure_stddev, d.min_exposure_stddev, p->min_exposure_stddev >= 0.0,
         ">= 0");
   check("max_saturated_ratio", &p->max_saturated_ratio, d.max_saturated_ratio,
         p->max_saturated_ratio > 0.0 && p->max_saturated_ratio <= 1.0, "in (0, 1]");
-  check("max_frame_gap_factor", &p->max_frame_gap_factor, d.max_frame_gap_factor, p->max_frame_gap_factor > 1.0,
-        "> 1");
+  check("max_frame_gap_factor", &p->max_frame_gap_factor, d.max_frame_gap_factor,
+        p->max_frame_gap_factor > 1.0, "> 1");
   check("min_rate_hz", &p->min_rate_hz, d.min_rate_hz, p->min_rate_hz > 0.0, "> 0");
   check("max_rate_hz", &p->max_rate_hz, d.max_rate_hz, p->max_rate_hz > p->min_rate_hz, "> ~min_rate_hz");
   check("initial_state_tolerance", &p->initial_state_tolerance_s, d.initial_state_tolerance_s,
         p->initial_state_tolerance_s >= 0.0, ">= 0");
   auto check_int = [&problems](const char* name, int* value, int fallback) {
     if (*value >= 1) return;
-    problems.push_back("~" + std::string(name) + " = " + std::to_string(*value) + " is invalid (>= 1): the default " +
-                       std::to_string(fallback) + " is used");
+    problems.push_back("~" + std::string(name) + " = " + std::to_string(*value) +
+                       " is invalid (>= 1): the default " + std::to_string(fallback) + " is used");
     *value = fallback;
   };
   check_int("queue_size", &p->queue_size, d.queue_size);

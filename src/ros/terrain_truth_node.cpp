@@ -42,8 +42,9 @@ int main(int argc, char** argv) {
     const cv::Mat hazard =
         terrain::hazardMask(truth.layers.at("slope_deg"), truth.layers.at("roughness_m"), thresholds);
     hazard_pub.publish(ros_io::toOccupancyGrid(hazard, truth.geometry, header));
-    ROS_INFO_STREAM("terrain_truth_node: the true terrain of " << dataset << " on ground_truth/terrain_cloud and "
-                                                              << "ground_truth/hazard");
+    ROS_INFO_STREAM("terrain_truth_node: the true terrain of " << dataset
+                                                               << " on ground_truth/terrain_cloud and "
+                                                               << "ground_truth/hazard");
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("terrain_truth_node: no true terrain to show: " << e.what());
   }

@@ -49,6 +49,7 @@ Densifier::Densifier(const PinholeCamera& camera, const DensifierConfig& config)
       config_.partners_per_keyframe < 1 || !(config_.pixel_sigma_px > 0.0) ||
       !(config_.min_parallax_deg > 0.0) || !(config_.max_forward_backward_px > 0.0) ||
       config_.klt_window_px < 5 || config_.klt_levels < 0 ||
+      !(std::isfinite(config_.max_window_footprint_m) && config_.max_window_footprint_m >= 0.0) ||
       !(config_.min_corner_quality > 0.0 && config_.min_corner_quality < 1.0))
     throw std::invalid_argument("Densifier: invalid configuration");
 }
@@ -207,6 +208,14 @@ std::vector<MapPointState> Densifier::addKeyframe(double timestamp_s, const Pose
         if ((q0 - q1).norm() > 4.0 * sigma_rad * std::max(s, u)) continue;
         const Eigen::Vector3d p = 0.5 * (q0 + q1);
         if (!inArea(p)) continue;
+        // The ground the tracking window covers, in the worse of the two views (range x window / focal
+        // length, stretched by the incidence on level ground): the relief the point averages over.
+        if (config_.max_window_footprint_m > 0.0) {
+          const double window_rad = config_.klt_window_px / camera_.fx();
+          const double f0 = s * window_rad / std::max(0.1, std::abs(d0.z()));
+          const double f1 = u * window_rad / std::max(0.1, std::abs(d1.z()));
+          if (std::max(f0, f1) > config_.max_window_footprint_m) continue;
+        }
         // Two-ray covariance (as the VO's map events: Gauss-Newton information of both observations).
         Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
         for (const Pose* T : {&partner->T_world_cam, &T_world_cam}) {

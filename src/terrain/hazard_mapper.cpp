@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
-#include <limits>
 #include <fstream>
 #include <functional>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 #include <variant>
 
@@ -50,9 +50,11 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"max_forward_backward_px", &c->densifier.max_forward_backward_px},
         {"pixel_sigma_px", &c->densifier.pixel_sigma_px},
         {"klt_window_px", &c->densifier.klt_window_px},
-        {"klt_levels", &c->densifier.klt_levels}}},
+        {"klt_levels", &c->densifier.klt_levels},
+        {"max_window_footprint_m", &c->densifier.max_window_footprint_m}}},
       {"thresholds",
-       {{"max_slope_deg", &c->thresholds.max_slope_deg}, {"max_roughness_m", &c->thresholds.max_roughness_m}}},
+       {{"max_slope_deg", &c->thresholds.max_slope_deg},
+        {"max_roughness_m", &c->thresholds.max_roughness_m}}},
       {"sites",
        {{"target_x_m", &c->sites.target_x_m},
         {"target_y_m", &c->sites.target_y_m},
@@ -87,7 +89,7 @@ bool readField(const YAML::Node& node, const FieldPtr& field, std::string* why) 
   } catch (const YAML::Exception&) {
     *why = std::holds_alternative<double*>(field) ? "expected a number"
            : std::holds_alternative<int*>(field)  ? "expected an integer"
-                                                   : "expected true or false";
+                                                  : "expected true or false";
     return false;
   }
   return true;
@@ -185,9 +187,12 @@ std::string dumpHazardMapperConfig(const HazardMapperConfig& config) {
     os << section << ":\n";
     for (const auto& [key, field] : fields) {
       os << "  " << key << ": ";
-      if (auto* d = std::get_if<double*>(&field)) os << **d;
-      else if (auto* i = std::get_if<int*>(&field)) os << **i;
-      else os << (**std::get_if<bool*>(&field) ? "true" : "false");
+      if (auto* d = std::get_if<double*>(&field))
+        os << **d;
+      else if (auto* i = std::get_if<int*>(&field))
+        os << **i;
+      else
+        os << (**std::get_if<bool*>(&field) ? "true" : "false");
       os << "\n";
     }
   }
@@ -227,7 +232,8 @@ void HazardMapper::setCamera(const PinholeCamera& camera) {
   densifier_ = std::move(densifier);
 }
 
-HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scale, const cv::Mat& keyframe_gray) {
+HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scale,
+                                       const cv::Mat& keyframe_gray) {
   HazardMapperUpdate update;
   update.keyframe = !events.keyframes_added.empty();
   if ((events.map_restarted || metric_scale != metric_) && camera_)
@@ -238,10 +244,10 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
     return update;
   if (keyframe_gray.type() != CV_8UC1 || keyframe_gray.cols != camera_->width() ||
       keyframe_gray.rows != camera_->height())
-    throw std::invalid_argument("HazardMapper::apply: the keyframe image is not 8-bit gray of the camera's size (" +
-                                std::to_string(keyframe_gray.cols) + "x" + std::to_string(keyframe_gray.rows) +
-                                ", camera " + std::to_string(camera_->width()) + "x" +
-                                std::to_string(camera_->height()) + ")");
+    throw std::invalid_argument(
+        "HazardMapper::apply: the keyframe image is not 8-bit gray of the camera's size (" +
+        std::to_string(keyframe_gray.cols) + "x" + std::to_string(keyframe_gray.rows) + ", camera " +
+        std::to_string(camera_->width()) + "x" + std::to_string(camera_->height()) + ")");
   const MapKeyframeState& kf = events.keyframes_added.back();
   const double ground_z = map_.medianGroundHeight();
   MapEvents dense;
@@ -275,7 +281,8 @@ HazardProducts HazardMapper::products() const {
   if (out.terrain.metric) {
     out.sites = findLandingSites(out.terrain.grids, config_.thresholds, config_.sites);
   } else {
-    out.sites.reason = "the map is not metric (vision only): no landing site is chosen on a map without metres";
+    out.sites.reason =
+        "the map is not metric (vision only): no landing site is chosen on a map without metres";
   }
   return out;
 }

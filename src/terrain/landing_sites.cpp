@@ -5,12 +5,12 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
-#include <sstream>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
-#include <opencv2/imgproc.hpp>
 #include <yaml-cpp/yaml.h>
+#include <opencv2/imgproc.hpp>
 
 #include "planetary_vo/terrain/surface_analysis.h"
 
@@ -100,7 +100,8 @@ SurfaceSigmas surfaceSigmas(const GridSet& grids) {
     for (int row = 0; row < g.rows; ++row) {
       const float* s = sigma_z.ptr<float>(row);
       float* o = out.slope_deg.ptr<float>(row);
-      for (int col = 0; col < g.cols; ++col) o[col] = static_cast<float>(std::atan(c * double(s[col])) * kRad2Deg);
+      for (int col = 0; col < g.cols; ++col)
+        o[col] = static_cast<float>(std::atan(c * double(s[col])) * kRad2Deg);
     }
   }
   // A footprint with an unknown sigma leaves the cell unknown, whatever k.
@@ -285,7 +286,8 @@ std::string quoted(const std::string& s) {
 
 void writeLandingSites(const std::string& path, const LandingSiteResult& result, const LandingSiteParams& p) {
   std::ofstream out(path);
-  out << "# Landing sites chosen on an estimated hazard map (terrain/landing_sites.h), best first; world frame "
+  out << "# Landing sites chosen on an estimated hazard map (terrain/landing_sites.h), best first; world "
+         "frame "
          "of the map, metres\n"
       << "params:\n"
       << "  target_x_m: " << num(p.target_x_m) << "\n  target_y_m: " << num(p.target_y_m)
@@ -302,7 +304,8 @@ void writeLandingSites(const std::string& path, const LandingSiteResult& result,
     out << "  - {col: " << s.col << ", row: " << s.row << ", x_m: " << num(s.x_m) << ", y_m: " << num(s.y_m)
         << ", elevation_m: " << num(s.elevation_m) << ", slope_deg: " << num(s.slope_deg)
         << ", roughness_m: " << num(s.roughness_m) << ", slope_sigma_deg: " << num(s.slope_sigma_deg)
-        << ", roughness_sigma_m: " << num(s.roughness_sigma_m) << ", slope_margin_deg: " << num(s.slope_margin_deg)
+        << ", roughness_sigma_m: " << num(s.roughness_sigma_m)
+        << ", slope_margin_deg: " << num(s.slope_margin_deg)
         << ", roughness_margin_m: " << num(s.roughness_margin_m) << ", clearance_m: " << num(s.clearance_m)
         << ", distance_to_target_m: " << num(s.distance_to_target_m) << ", score: " << num(s.score) << "}\n";
   if (!out) throw std::runtime_error("cannot write " + path);

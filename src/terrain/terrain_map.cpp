@@ -174,8 +174,8 @@ TerrainProducts TerrainMap::products() const {
       sigma.at<float>(row, col) = static_cast<float>(std::sqrt(covariance(0, 0)));
       // The fitted plane's gradient: its 1-sigma along the worst direction, as a slope angle.
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> gradient(gradient_covariance);
-      slope_sigma.at<float>(row, col) = static_cast<float>(
-          std::atan(std::sqrt(std::max(0.0, gradient.eigenvalues()(1)))) * 180.0 / M_PI);
+      slope_sigma.at<float>(row, col) =
+          static_cast<float>(std::atan(std::sqrt(std::max(0.0, gradient.eigenvalues()(1)))) * 180.0 / M_PI);
       ++out.cells_known;
     }
   }

@@ -65,7 +65,8 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
       sr += r_est.at<float>(row, col) - r_true.at<float>(row, col);
       srr += std::pow(r_est.at<float>(row, col) - r_true.at<float>(row, col), 2);
       if (sigmas.available) {
-        const float ssig = sigmas.slope_deg.at<float>(row, col), rsig = sigmas.roughness_m.at<float>(row, col);
+        const float ssig = sigmas.slope_deg.at<float>(row, col),
+                    rsig = sigmas.roughness_m.at<float>(row, col);
         if (std::isfinite(ssig) && std::isfinite(rsig)) {
           ++score.cells_sigma;
           const double es = std::abs(s_est.at<float>(row, col) - s_true.at<float>(row, col));

@@ -26,8 +26,8 @@ terrain::HazardProducts someProducts() {
   p.terrain.grids.geometry = g;
   p.terrain.metric = true;
   p.terrain.num_points = 1234;
-  const char* names[] = {"elevation_m", "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg", "slope_deg",
-                         "roughness_m"};
+  const char* names[] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
+                         "slope_sigma_deg", "slope_deg",         "roughness_m"};
   for (int i = 0; i < 6; ++i) {
     cv::Mat layer = g.newLayer();
     for (int r = 0; r < g.rows; ++r)
@@ -35,7 +35,8 @@ terrain::HazardProducts someProducts() {
         if ((r + c) % 4 != 0) layer.at<float>(r, c) = float(i * 100 + r * 10 + c) + 0.25f;
     p.terrain.grids.layers[names[i]] = layer;
   }
-  p.terrain.cells_known = cv::countNonZero(p.terrain.grids.layers["elevation_m"] == p.terrain.grids.layers["elevation_m"]);
+  p.terrain.cells_known =
+      cv::countNonZero(p.terrain.grids.layers["elevation_m"] == p.terrain.grids.layers["elevation_m"]);
   p.hazard = cv::Mat(g.rows, g.cols, CV_8U, cv::Scalar(terrain::kSafe));
   p.hazard.at<uint8_t>(1, 2) = terrain::kHazard;
   p.hazard.at<uint8_t>(4, 6) = terrain::kUnknown;
@@ -95,7 +96,8 @@ TEST(HazardConversions, OccupancyGridValuesAndOrder) {
   const terrain::HazardProducts products = someProducts();
   std_msgs::Header header;
   header.frame_id = "world";
-  const nav_msgs::OccupancyGrid grid = toOccupancyGrid(products.hazard, products.terrain.grids.geometry, header);
+  const nav_msgs::OccupancyGrid grid =
+      toOccupancyGrid(products.hazard, products.terrain.grids.geometry, header);
   ASSERT_EQ(grid.data.size(), 35u);
   EXPECT_EQ(grid.data[1 * 7 + 2], kOccupancyHazard);  // row-major from cell (0, 0)
   EXPECT_EQ(grid.data[4 * 7 + 6], kOccupancyUnknown);

@@ -10,8 +10,8 @@
 ///   - a malformed vo/map_events is rejected with a reason on hazard/status and the nodelet goes on applying
 ///     the next, valid one.
 ///
-/// Private parameters: ~dataset (string), ~max_elevation_error_m (double, 2; measured 0.20 m), ~min_cells_known (int, 200),
-/// ~manager, ~player ("/agnc_manager", "/player"), ~timeout (double, 90).
+/// Private parameters: ~dataset (string), ~max_elevation_error_m (double, 2; measured 0.20 m),
+/// ~min_cells_known (int, 200), ~manager, ~player ("/agnc_manager", "/player"), ~timeout (double, 90).
 
 #include <algorithm>
 #include <cmath>
@@ -168,8 +168,8 @@ TEST_F(HazardNodeTest, TheHazardMapOfTheDescentAndMalformedEventsRejected) {
   ASSERT_TRUE(g.cellAt(last.pose.position.x, last.pose.position.y, &col, &row))
       << "the camera's nadir is outside the hazard map";
   const float z_est = elevation.at<float>(row, col);
-  std::printf("hazard: elevation under the camera at t = %.1f s: %.2f m, truth %.2f m (error %+.2f m)\n", t_last,
-              z_est, true_ground_z, z_est - true_ground_z);
+  std::printf("hazard: elevation under the camera at t = %.1f s: %.2f m, truth %.2f m (error %+.2f m)\n",
+              t_last, z_est, true_ground_z, z_est - true_ground_z);
   ASSERT_TRUE(std::isfinite(z_est)) << "no elevation under the camera";
   EXPECT_LT(std::abs(z_est - true_ground_z), max_elevation_error_m_);
 

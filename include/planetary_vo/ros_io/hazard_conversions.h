@@ -2,13 +2,13 @@
 /// @file hazard_conversions.h
 /// The hazard mapper's products (terrain/hazard_mapper.h) <-> the messages of the hazard nodelet:
 /// planetary_vo/HazardMap (the rasters), nav_msgs/OccupancyGrid (the hazard mask), planetary_vo/LandingSites,
-/// geometry_msgs/PoseArray and PoseStamped (the sites), visualization_msgs/MarkerArray (sites, target, for rviz)
-/// and sensor_msgs/PointCloud2 (the elevation with its slope, for rviz). No node handle: unit-tested in
+/// geometry_msgs/PoseArray and PoseStamped (the sites), visualization_msgs/MarkerArray (sites, target, for
+/// rviz) and sensor_msgs/PointCloud2 (the elevation with its slope, for rviz). No node handle: unit-tested in
 /// test/ros/test_hazard_conversions.cpp without a master.
 ///
 /// Grid layout in every message: nav_msgs/OccupancyGrid's (row-major from cell (0, 0) at the smallest x and
-/// y; origin = the outer corner of cell (0, 0)); the same as terrain::GridGeometry's cells, so a layer's image
-/// row r is grid row r.
+/// y; origin = the outer corner of cell (0, 0)); the same as terrain::GridGeometry's cells, so a layer's
+/// image row r is grid row r.
 
 #include <stdexcept>
 
@@ -48,8 +48,9 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg);
 nav_msgs::OccupancyGrid toOccupancyGrid(const cv::Mat& hazard, const terrain::GridGeometry& geometry,
                                         const std_msgs::Header& header);
 
-LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result, const terrain::LandingSiteParams& params,
-                               bool metric, const std_msgs::Header& header);
+LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result,
+                               const terrain::LandingSiteParams& params, bool metric,
+                               const std_msgs::Header& header);
 /// The sites as poses (best first; orientation: the map frame's, z up); a site's z is its elevation or 0.
 geometry_msgs::PoseArray toPoseArray(const LandingSites& sites);
 /// A cylinder of the clearance radius per site (the best green, the others yellow) with its rank and
@@ -59,6 +60,7 @@ visualization_msgs::MarkerArray toMarkers(const LandingSites& sites);
 
 /// Cells with an elevation as points (x, y, z = elevation; intensity = slope in deg, NaN-free), every
 /// `stride`-th cell along rows and columns (stride >= 1).
-sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int stride, const std_msgs::Header& header);
+sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int stride,
+                                          const std_msgs::Header& header);
 
 }  // namespace planetary_vo::ros_io

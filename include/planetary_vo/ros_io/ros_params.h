@@ -61,7 +61,8 @@ struct NodeletParams {
 };
 /// Reads the nodelet's parameters; each invalid one (validateNodeletParams) keeps its default and is named in
 /// *problems (if given), which the nodelet logs as an error at startup.
-NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh, std::vector<std::string>* problems = nullptr);
+NodeletParams loadNodeletParams(const ros::NodeHandle& private_nh,
+                                std::vector<std::string>* problems = nullptr);
 /// @brief Sets every invalid field of `p` back to its default (NodeletParams{}): NaN or infinite numbers
 /// (`~position_sigma_m: .nan` made every vo/odometry covariance NaN), non-positive sigmas and rates, a
 /// lost_sigma_factor below 1, a negative min_exposure_stddev, a max_saturated_ratio outside (0, 1], a

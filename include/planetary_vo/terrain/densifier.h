@@ -54,6 +54,11 @@ struct DensifierConfig {
   double max_forward_backward_px = 0.5;
   double pixel_sigma_px = 0.5;  ///< KLT accuracy, for the points' covariance and the ray gap test
   int klt_window_px = 21;
+  /// A point is kept only when the ground its tracking window covers (range x klt_window_px / fx, divided
+  /// by the cosine of the incidence on level ground) is at most this in both views: a point seen from
+  /// farther averages relief over a wider patch than the lander's footprint. 0 = no limit. Default: the
+  /// 4 m footprint (campaign of docs/terrain/README.md: unsafe sites chosen 12 of 24 without, 3 of 16 with).
+  double max_window_footprint_m = 4.0;
   int klt_levels = 4;
 };
 

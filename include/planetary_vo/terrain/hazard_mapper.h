@@ -64,8 +64,8 @@ std::string dumpHazardMapperConfig(const HazardMapperConfig& config);
 
 /// What one apply() did.
 struct HazardMapperUpdate {
-  bool keyframe = false;    ///< the events added a keyframe
-  bool densified = false;   ///< ... and the densifier ran on it
+  bool keyframe = false;     ///< the events added a keyframe
+  bool densified = false;    ///< ... and the densifier ran on it
   DensifierStats densifier;  ///< its counts when it ran
 };
 
@@ -94,7 +94,8 @@ class HazardMapper {
   /// the same ground) but starts the densifier's keyframe history again, as does a change of the metric
   /// flag (the older keyframes' poses are in the other unit). Throws std::invalid_argument on a keyframe
   /// image that is not CV_8UC1 of the camera's size.
-  HazardMapperUpdate apply(const MapEvents& events, bool metric_scale, const cv::Mat& keyframe_gray = cv::Mat());
+  HazardMapperUpdate apply(const MapEvents& events, bool metric_scale,
+                           const cv::Mat& keyframe_gray = cv::Mat());
 
   /// Everything back to the state after construction (the camera is kept).
   void reset();

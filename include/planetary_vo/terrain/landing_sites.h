@@ -12,8 +12,8 @@
 ///
 /// Uncertainty (layer `elevation_sigma_m`, the elevation's 1-sigma; without it sigma_slope = sigma_roughness
 /// = 0; with the terrain model's own `slope_sigma_deg` layer, that replaces the slope bound below: see
-/// surfaceSigmas). sigma_z of a cell = the largest elevation sigma over its footprint disc (the disc its slope and
-/// roughness were computed over, terrain/surface_analysis.h, diameter from the grid set's parameter
+/// surfaceSigmas). sigma_z of a cell = the largest elevation sigma over its footprint disc (the disc its
+/// slope and roughness were computed over, terrain/surface_analysis.h, diameter from the grid set's parameter
 /// `footprint_diameter_m`). The slope is the gradient of a least-squares plane over the disc's cells, g_x =
 /// sum(dx_i z_i) / sum(dx_i^2), so an elevation error e_i moves it by sum(dx_i e_i) / sum(dx_i^2). Whatever
 /// the correlation of the cells' errors, the standard deviation of that sum is at most sum(|dx_i|) sigma_z
@@ -57,9 +57,11 @@ struct LandingSiteParams {
   /// The target (world frame): the planned landing site, the origin of the landing-site frame.
   double target_x_m = 0.0;
   double target_y_m = 0.0;
-  /// How far from the target a site may be: the divert the lander can still fly at the low gate (100 m up in
-  /// the Lunar approach). Half the altitude is the default; a vehicle sets its own.
-  double max_distance_from_target_m = 50.0;
+  /// How far from the target a site may be: the divert the lander can still fly at the low gate (100 m up,
+  /// 100 m short of the site in the Lunar approach). The default, the low gate's altitude, is an assumption
+  /// (no vehicle is specified here); a vehicle sets its own. With 50 m, the oblique approaches found no site
+  /// the map could certify near the target (docs/terrain/README.md, the campaign).
+  double max_distance_from_target_m = 100.0;
   int max_sites = 5;
   /// Distinct alternatives rather than neighbouring cells of one patch: the footprint (4 m) plus the
   /// dispersion (min_clearance_m) on either side.
@@ -124,12 +126,13 @@ SurfaceSigmas surfaceSigmas(const GridSet& grids);
 LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds& thresholds,
                                    const LandingSiteParams& params = LandingSiteParams());
 
-/// The sites a run chose and the parameters they were chosen with, as a YAML file (`landing_sites.yaml` beside
-/// a run's terrain.yaml: vo_run --output-terrain, hazard_recorder), what terrain_eval checks against the truth.
-/// Throws std::runtime_error when the file cannot be written.
-void writeLandingSites(const std::string& path, const LandingSiteResult& result, const LandingSiteParams& params);
-/// Reads what writeLandingSites wrote (result.sites, reason, cell counts; params). Throws std::runtime_error on
-/// a missing or malformed file.
+/// The sites a run chose and the parameters they were chosen with, as a YAML file (`landing_sites.yaml`
+/// beside a run's terrain.yaml: vo_run --output-terrain, hazard_recorder), what terrain_eval checks against
+/// the truth. Throws std::runtime_error when the file cannot be written.
+void writeLandingSites(const std::string& path, const LandingSiteResult& result,
+                       const LandingSiteParams& params);
+/// Reads what writeLandingSites wrote (result.sites, reason, cell counts; params). Throws std::runtime_error
+/// on a missing or malformed file.
 LandingSiteResult readLandingSites(const std::string& path, LandingSiteParams* params);
 
 }  // namespace planetary_vo::terrain

@@ -3,7 +3,7 @@
 ///
 ///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10] [--max-roughness-m
 ///   0.3]
-///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 50] [--confidence-k 2] [--json FILE]
+///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2] [--json FILE]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
@@ -122,8 +122,8 @@ int main(int argc, char** argv) {
                   support_m);
       printScore(*at_support, thresholds);
     }
-    // The landing site the run chose (DIR/landing_sites.yaml, vo_run or hazard_recorder), else the one the map
-    // would choose with the parameters given here, and whether the truth agrees.
+    // The landing site the run chose (DIR/landing_sites.yaml, vo_run or hazard_recorder), else the one the
+    // map would choose with the parameters given here, and whether the truth agrees.
     const std::string sites_file = est_dir + "/landing_sites.yaml";
     const bool from_run = !choose_here && std::ifstream(sites_file).good();
     const LandingSiteResult chosen = from_run ? readLandingSites(sites_file, &site_params)

@@ -66,6 +66,8 @@ TEST(Densifier, TriangulatesASlopeThatTheTerrainModelReads) {
   DensifierConfig config;
   config.area.half_extent_m = 30.0;
   config.area.cell_size_m = 0.5;
+  config.max_window_footprint_m =
+      0.0;  // the window covers ~4.5 m of ground from 120 m here (the gate has its own test)
   Densifier densifier(camera, config);
   const Pose a = nadirAt(-6.0, 0.0, 120.0);
   Pose b = nadirAt(6.0, 0.0, 118.0);  // turned 1 deg about the vertical and pitched 0.5 deg
@@ -128,6 +130,7 @@ TEST(Densifier, WarpingThePartnerRemovesTheBiasOfRotatedAndScaledViews) {
   auto heightRms = [&](bool warp) {
     DensifierConfig config;
     config.area.half_extent_m = 30.0;
+    config.max_window_footprint_m = 0.0;
     config.warp_partner = warp;
     Densifier densifier(camera, config);
     densifier.addKeyframe(0.0, a, render(tex, camera, a), 0.0);
@@ -143,6 +146,33 @@ TEST(Densifier, WarpingThePartnerRemovesTheBiasOfRotatedAndScaledViews) {
   const double warped = heightRms(true), plain = heightRms(false);
   EXPECT_LT(warped, 0.12);
   EXPECT_GT(plain, 1.5 * warped);
+}
+
+// The window-footprint gate: from 118-120 m with this camera a 21 px window covers 120 x 21 / fx (fx 554 px)
+// of nadir ground (4.5 m), a little more towards the image edges; a limit below that keeps no point, one well
+// above it keeps them all.
+TEST(Densifier, PointsWhoseWindowCoversMoreGroundThanTheLimitAreDropped) {
+  const cv::Mat tex = texture();
+  const PinholeCamera camera = PinholeCamera::fromFieldOfView(kSize, kSize, 60.0);
+  const double nadir_window_m = 120.0 * 21.0 / camera.fx();
+  const Pose a = nadirAt(-6.0, 0.0, 120.0), b = nadirAt(6.0, 0.0, 118.0);
+  auto count = [&](double limit_m) {
+    DensifierConfig config;
+    config.area.half_extent_m = 30.0;
+    config.max_window_footprint_m = limit_m;
+    Densifier densifier(camera, config);
+    densifier.addKeyframe(0.0, a, render(tex, camera, a), 0.0);
+    return densifier.addKeyframe(1.0, b, render(tex, camera, b), 0.0).size();
+  };
+  const size_t unlimited = count(0.0);
+  ASSERT_GT(unlimited, 1000u);
+  EXPECT_EQ(count(0.8 * nadir_window_m), 0u);
+  EXPECT_EQ(count(2.0 * nadir_window_m), unlimited);
+  const size_t between = count(1.01 * nadir_window_m);  // the centre of the image only
+  EXPECT_GT(between, 0u);
+  EXPECT_LT(between, unlimited);
+  std::printf("  window footprint at nadir %.2f m: %zu points unlimited, %zu within 1.01x\n", nadir_window_m,
+              unlimited, between);
 }
 
 int main(int argc, char** argv) {

@@ -84,7 +84,8 @@ TEST(LandingSites, CentreOfASafeDiscInHazardsIsTheBestSite) {
   // 0.05 m, in 20 deg terrain. Target: the origin, 5 m from the centre.
   GridSet g = hazardField(61, 61, -15.0, -15.0);
   paintDisc(&g, 4.0, -3.0, 5.0, 2.0f, 0.05f);
-  const LandingSiteParams params;
+  LandingSiteParams params;
+  params.max_distance_from_target_m = 50.0;
   const LandingSiteResult r = findLandingSites(g, HazardThresholds(), params);
   ASSERT_EQ(r.sites.size(), 1u) << r.reason;  // every other qualifying cell is within 10 m of the centre
   const LandingSite& s = r.sites[0];
@@ -116,6 +117,7 @@ TEST(LandingSites, OfTwoEqualSitesTheNearerToTheTargetComesFirst) {
   paintDisc(&g, -10.0, 0.0, 5.0, 2.0f, 0.05f);
   paintDisc(&g, 20.0, 0.0, 5.0, 2.0f, 0.05f);
   LandingSiteParams params;
+  params.max_distance_from_target_m = 50.0;
   LandingSiteResult r = findLandingSites(g, HazardThresholds(), params);
   ASSERT_EQ(r.sites.size(), 2u) << r.reason;
   EXPECT_DOUBLE_EQ(r.sites[0].x_m, -10.0);
@@ -306,7 +308,9 @@ TEST(LandingSites, NoQualifyingSiteGivesAnEmptyListAndTheReason) {
   EXPECT_GT(r.cells_safe, 0);
 
   g.layers["slope_deg"].setTo(kNaN);
-  r = findLandingSites(g, t, LandingSiteParams());
+  LandingSiteParams reach_50;
+  reach_50.max_distance_from_target_m = 50.0;
+  r = findLandingSites(g, t, reach_50);
   EXPECT_TRUE(r.sites.empty());
   EXPECT_NE(r.reason.find("no cell within 50.0 m of the target (0.0, 0.0) has a known"), std::string::npos)
       << r.reason;
