@@ -15,9 +15,10 @@
 namespace planetary_vo::ros_io {
 namespace {
 
-constexpr int kNumRasterLayers = 6;
+constexpr int kNumRasterLayers = 7;
 const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
-                                                     "slope_sigma_deg", "slope_deg",         "roughness_m"};
+                                                     "slope_sigma_deg", "residual_rms_m",    "slope_deg",
+                                                     "roughness_m"};
 
 sensor_msgs::Image floatImage(const cv::Mat& layer, const std_msgs::Header& header) {
   sensor_msgs::Image img;
@@ -90,9 +91,9 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.max_roughness_m = config.thresholds.max_roughness_m;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
-  sensor_msgs::Image* out[kNumRasterLayers] = {&msg.elevation_m,    &msg.elevation_sigma_m,
-                                               &msg.relief_sigma_m, &msg.slope_sigma_deg,
-                                               &msg.slope_deg,      &msg.roughness_m};
+  sensor_msgs::Image* out[kNumRasterLayers] = {
+      &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
+      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m};
   for (int i = 0; i < kNumRasterLayers; ++i) {
     auto it = grids.layers.find(kRasterLayers[i]);
     if (it != grids.layers.end()) *out[i] = floatImage(it->second, header);
@@ -103,9 +104,9 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
 terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
   terrain::GridSet grids;
   grids.geometry = fromMapMetaData(msg.info);
-  const sensor_msgs::Image* in[kNumRasterLayers] = {&msg.elevation_m,    &msg.elevation_sigma_m,
-                                                    &msg.relief_sigma_m, &msg.slope_sigma_deg,
-                                                    &msg.slope_deg,      &msg.roughness_m};
+  const sensor_msgs::Image* in[kNumRasterLayers] = {
+      &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
+      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m};
   for (int i = 0; i < kNumRasterLayers; ++i)
     if (!in[i]->data.empty())
       grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);

@@ -69,6 +69,7 @@ SurfaceSigmas surfaceSigmas(const GridSet& grids) {
   const cv::Mat* elevation_sigma = findLayer(grids, "elevation_sigma_m", false);
   const cv::Mat* fit_slope_sigma = findLayer(grids, "slope_sigma_deg", false);
   const cv::Mat* fit_relief_sigma = findLayer(grids, "relief_sigma_m", false);
+  const cv::Mat* residual_rms = findLayer(grids, "residual_rms_m", false);
   SurfaceSigmas out;
   if (!elevation_sigma) return out;
   const auto footprint = grids.parameters.find("footprint_diameter_m");
@@ -91,6 +92,7 @@ SurfaceSigmas surfaceSigmas(const GridSet& grids) {
   const cv::Mat sigma_z = discMax(*elevation_sigma);
   const cv::Mat sigma_unknown = sigma_z == std::numeric_limits<float>::infinity();
   out.roughness_m = fit_relief_sigma ? discMax(*fit_relief_sigma) : sigma_z;
+  if (residual_rms) out.unresolved_relief_m = discMax(*residual_rms);
   if (fit_slope_sigma) {
     out.slope_deg = discMax(*fit_slope_sigma);
     out.slope_from_fit = true;
@@ -131,7 +133,17 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
 
   // Safe with confidence: the hazard mask of the raised slope and roughness (NaN stays unknown).
   const cv::Mat slope_upper = slope + k * sigma_slope_deg;
-  const cv::Mat rough_upper = rough + k * sigma_rough_m;
+  cv::Mat rough_upper = rough + k * sigma_rough_m;
+  // Relief the map does not resolve: the points' RMS distance from their fitted planes (noise plus rocks
+  // smaller than the plane-fit support), over the footprint; the roughness limit cannot be certified where it
+  // exceeds it (an unknown stays unknown).
+  if (!sigmas.unresolved_relief_m.empty())
+    for (int row = 0; row < g.rows; ++row) {
+      float* r = rough_upper.ptr<float>(row);
+      const float* u = sigmas.unresolved_relief_m.ptr<float>(row);
+      for (int col = 0; col < g.cols; ++col)
+        r[col] = std::isfinite(u[col]) ? std::max(r[col], u[col]) : std::numeric_limits<float>::quiet_NaN();
+    }
   const cv::Mat mask = hazardMask(slope_upper, rough_upper, thresholds);
 
   // Clearance: distance to the nearest cell that is not safe with confidence; one border cell of unknown

@@ -95,6 +95,7 @@ TerrainProducts TerrainMap::products() const {
                           {"metric", metric_ ? 1.0 : 0.0}};
   cv::Mat elevation = geometry.newLayer(), sigma = geometry.newLayer(), support = geometry.newLayer(0.0f);
   cv::Mat slope_sigma = geometry.newLayer(), relief_sigma = geometry.newLayer();
+  cv::Mat residual_rms = geometry.newLayer();
 
   // The usable points near the area, bucketed by the support radius.
   const double R = config_.support_radius_m;
@@ -169,6 +170,9 @@ TerrainProducts TerrainMap::products() const {
       const double scatter = n > 3 ? chi2 / (n - 3) : 1.0;
       const Eigen::Matrix2d gradient_covariance = covariance.block<2, 2>(1, 1) * scatter;
       relief_sigma.at<float>(row, col) = static_cast<float>(std::sqrt(covariance(0, 0) * scatter));
+      // The points' weighted RMS distance from the fitted plane (metres): their noise plus the relief the
+      // plane does not follow.
+      residual_rms.at<float>(row, col) = static_cast<float>(std::sqrt(chi2 / A(0, 0)));
       covariance *= std::max(1.0, scatter);
       elevation.at<float>(row, col) = static_cast<float>(x(0));
       sigma.at<float>(row, col) = static_cast<float>(std::sqrt(covariance(0, 0)));
@@ -184,6 +188,7 @@ TerrainProducts TerrainMap::products() const {
   out.grids.layers["elevation_sigma_m"] = sigma;
   out.grids.layers["slope_sigma_deg"] = slope_sigma;
   out.grids.layers["relief_sigma_m"] = relief_sigma;
+  out.grids.layers["residual_rms_m"] = residual_rms;
   out.grids.layers["support_points"] = support;
   out.grids.layers["slope_deg"] = surface.slope_deg;
   out.grids.layers["roughness_m"] = surface.roughness_m;

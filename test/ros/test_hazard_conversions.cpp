@@ -26,9 +26,9 @@ terrain::HazardProducts someProducts() {
   p.terrain.grids.geometry = g;
   p.terrain.metric = true;
   p.terrain.num_points = 1234;
-  const char* names[] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
-                         "slope_sigma_deg", "slope_deg",         "roughness_m"};
-  for (int i = 0; i < 6; ++i) {
+  const char* names[] = {"elevation_m",    "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg",
+                         "residual_rms_m", "slope_deg",         "roughness_m"};
+  for (int i = 0; i < 7; ++i) {
     cv::Mat layer = g.newLayer();
     for (int r = 0; r < g.rows; ++r)
       for (int c = 0; c < g.cols; ++c)
@@ -68,8 +68,8 @@ TEST(HazardConversions, RastersRoundTripWithTheGeometry) {
   EXPECT_DOUBLE_EQ(msg.info.origin.position.y, 9.75);
   const terrain::GridSet back = fromHazardMapMsg(msg);
   EXPECT_TRUE(back.geometry == products.terrain.grids.geometry);
-  for (const char* name :
-       {"elevation_m", "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg", "slope_deg", "roughness_m"})
+  for (const char* name : {"elevation_m", "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg",
+                           "residual_rms_m", "slope_deg", "roughness_m"})
     EXPECT_TRUE(sameBits(back.layers.at(name), products.terrain.grids.layers.at(name))) << name;
   EXPECT_EQ(back.parameters.at("footprint_diameter_m"), config.area.footprint_diameter_m);
   EXPECT_EQ(back.parameters.at("max_slope_deg"), config.thresholds.max_slope_deg);

@@ -34,9 +34,9 @@ nav_msgs::MapMetaData toMapMetaData(const terrain::GridGeometry& geometry, const
 /// grid or a rotated origin.
 terrain::GridGeometry fromMapMetaData(const nav_msgs::MapMetaData& info);
 
-/// The rasters (layers elevation_m, elevation_sigma_m, relief_sigma_m, slope_sigma_deg, slope_deg,
-/// roughness_m as 32FC1 images, empty when the products lack one; the header goes to each) with the
-/// thresholds and map settings of `config`.
+/// The rasters (layers elevation_m, elevation_sigma_m, relief_sigma_m, slope_sigma_deg, residual_rms_m,
+/// slope_deg, roughness_m as 32FC1 images, empty when the products lack one; the header goes to each) with
+/// the thresholds and map settings of `config`.
 HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain::HazardMapperConfig& config,
                          const std_msgs::Header& header);
 /// The layers of a HazardMap as a grid set (parameters footprint_diameter_m, support_radius_m,

@@ -110,10 +110,15 @@ double slopeSigmaPerElevationSigma(double cell_size_m, double footprint_diameter
 /// the grid set has that layer (the gradient uncertainty of the terrain model's plane fits,
 /// terrain_map.h), else the correlated-error bound atan(c sigma_z) of the file comment. NaN where a sigma
 /// over the disc is unknown. `available` is false (layers empty) without `elevation_sigma_m`.
+/// unresolved_relief_m: the largest `residual_rms_m` over the disc when the grid set has it (the terrain
+/// model's points' RMS distance from their fitted plane: noise plus relief smaller than the fit's support);
+/// findLandingSites raises the roughness to at least this, so a site where it exceeds the roughness limit is
+/// never certified. Empty without the layer.
 struct SurfaceSigmas {
   bool available = false;
   bool slope_from_fit = false;  ///< slope_deg from `slope_sigma_deg`, not from the bound
   cv::Mat slope_deg, roughness_m;
+  cv::Mat unresolved_relief_m;
 };
 /// Throws std::invalid_argument when `elevation_sigma_m` is there without the `footprint_diameter_m`
 /// parameter.

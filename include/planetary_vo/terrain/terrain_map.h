@@ -46,7 +46,9 @@ struct TerrainMapConfig {
 };
 
 struct TerrainProducts {
-  /// Layers elevation_m, elevation_sigma_m, slope_sigma_deg (the 1-sigma of the fitted plane's gradient
+  /// Layers elevation_m, elevation_sigma_m, relief_sigma_m (the intercept's sigma from the fit's scatter),
+  /// residual_rms_m (the points' weighted RMS distance from the fitted plane: noise plus unresolved relief),
+  /// slope_sigma_deg (the 1-sigma of the fitted plane's gradient
   /// along its worst direction, as an angle: the slope uncertainty at the map's resolution), support_points
   /// (count within the support radius), slope_deg, roughness_m on config.area.geometry(); parameters record
   /// the config.

@@ -150,6 +150,36 @@ TEST(HazardMapper, TheBankIsAHazardAndTheSiteIsOnThePlain) {
   EXPECT_THROW(readLandingSites(file + ".missing", &params), std::runtime_error);
 }
 
+// A boulder field west of x = -5 m: blocks 0.8 m high and 1.2 m wide every 2 m (a third of the ground). The
+// 2 m plane-fit support averages them into a raised, smooth surface (estimated roughness under 0.3 m), but
+// the points' RMS distance from the fitted planes (~0.38 m) exceeds the roughness limit, so no site is
+// certified there; without the residual layer the smooth-looking field would be chosen.
+TEST(HazardMapper, NoSiteWhereThePointsShowReliefTheMapDoesNotResolve) {
+  HazardMapperConfig config = smallArea();
+  config.sites.target_x_m = -20.0;  // in the boulder field
+  config.sites.max_distance_from_target_m = 12.0;
+  config.sites.min_clearance_m = 1.0;  // the smoothed field still has rough spots 2 m apart
+  HazardMapper mapper(config);
+  MapEvents events = pointsOnSurface();
+  for (MapPointState& p : events.points_added) {
+    const double x = p.p_world.x(), y = p.p_world.y();
+    const double dx = std::remainder(x, 2.0), dy = std::remainder(y, 2.0);
+    if (x < -5.0 && std::abs(dx) < 0.6 && std::abs(dy) < 0.6) p.p_world.z() += 0.8;
+  }
+  mapper.apply(events, true);
+  HazardProducts products = mapper.products();
+  ASSERT_TRUE(products.terrain.grids.layers.count("residual_rms_m"));
+  EXPECT_TRUE(products.sites.sites.empty())
+      << "a site in the boulder field at (" << products.sites.sites[0].x_m << ", "
+      << products.sites.sites[0].y_m << ")";
+  // The same map without the residuals: the boulders are smoothed away and the field looks safe.
+  products.terrain.grids.layers.erase("residual_rms_m");
+  const LandingSiteResult blind = findLandingSites(products.terrain.grids, config.thresholds, config.sites);
+  ASSERT_FALSE(blind.sites.empty()) << blind.reason << " (safe " << blind.cells_safe << " of "
+                                    << blind.cells_known << ")";
+  EXPECT_LT(blind.sites.front().roughness_m, 0.3);
+}
+
 TEST(HazardMapper, NoSiteOnAMapWithoutMetres) {
   HazardMapper mapper(smallArea());
   mapper.apply(pointsOnSurface(), /*metric_scale=*/false);
