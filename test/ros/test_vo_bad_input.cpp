@@ -13,7 +13,8 @@
 /// absurd_intrinsics (cx = 1e6, 1e9, fx = 1e9: rejected, then good camera_info again), frozen (the last image
 /// repeated with fresh stamps: BAD_INPUT "frozen frame"), stamp_jump (one image stamped 5 s, then one a year,
 /// ahead: each refused as suspect, the next good frame tracked; then the stream's clock really jumps 3 s:
-/// one image refused, the next confirms and is processed, tracking goes on); and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
+/// one image refused, the next confirms and is processed, tracking goes on), stamp_restart (the clock goes
+/// back 2 s for good: one image refused, the next restarts the trajectory by itself, tracking again); and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
 /// the dataset's IMU and altimeter streams published before each image (lock step: the nodelet has queued
 /// them before the image is sent), the initial state handed over, and bad samples in place of part 2's
 /// image: non-finite, REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
@@ -261,7 +262,7 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
   for (const size_t end = next + kGoodBefore; next < end; ++next)
     tracked |= sendGood(next).state == VoStatus::STATE_TRACKING;
   ASSERT_TRUE(tracked) << "the VO never tracked on good input";
-  const size_t poses_before = poses_.size();
+  size_t poses_before = poses_.size();  // the no-jump check starts here (case stamp_restart: later)
   const double step_before = maxStep(0, poses_before);
   ASSERT_GT(step_before, 0.0);
 
@@ -360,6 +361,27 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
     const VoStatus confirmed = sendGood(next++);
     EXPECT_TRUE(confirmed.processed) << confirmed.state_name << ": " << confirmed.message;
     EXPECT_NE(confirmed.message.find("next image confirmed it"), std::string::npos) << confirmed.message;
+  } else if (case_ == "stamp_restart") {
+    // The stream's clock goes back 2 s for good (a restarted bag or camera): the first image is refused as
+    // suspect, the next confirms the old-again timeline and the trajectory restarts (as after vo/reset), with
+    // a status saying so; no call of vo/reset is needed. The no-jump check starts with the new trajectory.
+    stamp_offset_ = ros::Duration(-2.0);
+    expectBad(sendGood(next++), "went backwards");
+    const ros::Time restart = stamp(next);
+    const VoStatus confirmed = sendGood(next++);
+    EXPECT_TRUE(confirmed.processed) << confirmed.state_name << ": " << confirmed.message;
+    EXPECT_NE(confirmed.message.find("jumped back"), std::string::npos) << confirmed.message;
+    EXPECT_NE(confirmed.message.find("trajectory restarts"), std::string::npos) << confirmed.message;
+    ASSERT_TRUE(waitFor(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          // From the end: the old trajectory has poses with the same stamps (20 frames back).
+          for (size_t k = poses_.size(); k-- > 0;)
+            if (poses_[k].header.stamp == restart) return poses_before = k + 1, true;
+          return false;
+        },
+        10.0))
+        << "no pose for the image that restarted the trajectory";
   } else if (case_ == "dropped") {
     next += 4;  // four frames never arrive
     const VoStatus s = sendGood(next++);
