@@ -502,8 +502,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (since_last_s > 0.0 && since_last_s <= limit_s) {  // the timeline goes on
       if (suspect_stamp_) {
         const double off_s = (*suspect_stamp_ - *last_stamp_).toSec();
-        *note = "the image stamped " + std::to_string(std::abs(off_s)) + " s " + (off_s > 0.0 ? "ahead" : "back") +
-                " was an outlier: rejected, the stream goes on";
+        *note = "the image stamped " + std::to_string(std::abs(off_s)) + " s " +
+                (off_s > 0.0 ? "ahead" : "back") + " was an outlier: rejected, the stream goes on";
         suspect_stamp_.reset();
       }
       return "";
@@ -537,7 +537,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
              "after this one the trajectory restarts)";
     return "image stamp jumped forward by " + std::to_string(since_last_s) + " s (more than " +
            std::to_string(limit_s) +
-           " s): refused as suspect (the next image decides: on the old timeline it was an outlier, just after "
+           " s): refused as suspect (the next image decides: on the old timeline it was an outlier, just "
+           "after "
            "this one the stream really jumped)";
   }
   /// Largest forward step between two images that is not a jump: 1 s, or ~max_frame_gap_factor periods of

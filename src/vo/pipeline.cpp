@@ -291,7 +291,8 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   double mean_abs_diff = 0.0;
   if (frozen_detector_.check(gray, &mean_abs_diff)) {
     result.input_rejected = true;
-    result.state = stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
+    result.state =
+        stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
     std::ostringstream why;
     why.precision(3);
     why << "frozen frame: the image repeats the previous one (mean absolute difference " << mean_abs_diff

@@ -14,10 +14,11 @@
 /// repeated with fresh stamps: BAD_INPUT "frozen frame"), stamp_jump (one image stamped 5 s, then one a year,
 /// ahead: each refused as suspect, the next good frame tracked; then the stream's clock really jumps 3 s:
 /// one image refused, the next confirms and is processed, tracking goes on), stamp_restart (the clock goes
-/// back 2 s for good: one image refused, the next restarts the trajectory by itself, tracking again); and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
-/// the dataset's IMU and altimeter streams published before each image (lock step: the nodelet has queued
-/// them before the image is sent), the initial state handed over, and bad samples in place of part 2's
-/// image: non-finite, REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
+/// back 2 s for good: one image refused, the next restarts the trajectory by itself, tracking again); and
+/// samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with the dataset's
+/// IMU and altimeter streams published before each image (lock step: the nodelet has queued them before the
+/// image is sent), the initial state handed over, and bad samples in place of part 2's image: non-finite,
+/// REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
 /// +-Inf ranges; and a 0.2 s gap in the IMU stream before the last 4 images. Checks besides: every bad
 /// sample counted (exactly), the status says so, every good sample used, nav/odometry at the IMU rate after
 /// the bad samples, the gap reported, metric nav/odometry after it.

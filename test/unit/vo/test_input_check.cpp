@@ -37,7 +37,8 @@ TEST(FrozenFrameDetector, IdenticalAndNearIdenticalFramesAreFrozen) {
   // One gray level more on a tenth of the pixels: still the same picture.
   cv::Mat nudged = image.clone();
   for (int r = 0; r < nudged.rows; r += 4)
-    for (int c = 0; c < nudged.cols; c += 40) nudged.at<uint8_t>(r, c) = cv::saturate_cast<uint8_t>(nudged.at<uint8_t>(r, c) + 1);
+    for (int c = 0; c < nudged.cols; c += 40)
+      nudged.at<uint8_t>(r, c) = cv::saturate_cast<uint8_t>(nudged.at<uint8_t>(r, c) + 1);
   EXPECT_TRUE(detector.check(nudged, &mad));
   EXPECT_GT(mad, 0.0);
   EXPECT_LT(mad, 0.5);

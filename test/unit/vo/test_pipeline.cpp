@@ -347,8 +347,9 @@ SequenceRun runFrozenSequence(const VoConfig& config, int num_frames, int freeze
   return run;
 }
 
-/// Output steps between consecutive processed frames, in ground-truth metres (Sim(3) scale of the alignment of
-/// all processed poses), by the frame index of the step's end, and the Sim(3) ATE (%) of the pose estimates.
+/// Output steps between consecutive processed frames, in ground-truth metres (Sim(3) scale of the alignment
+/// of all processed poses), by the frame index of the step's end, and the Sim(3) ATE (%) of the pose
+/// estimates.
 struct StepsAndAte {
   std::map<int64_t, double> step_m;
   double ate_percent = 0.0;
@@ -365,7 +366,8 @@ StepsAndAte stepsAndAte(const SequenceRun& run) {
   StepsAndAte out;
   for (size_t k = 1; k < all.size(); ++k)
     out.step_m[processed[k]->frame_index] =
-        eval_all.alignment.scale * (all[k].T_world_cam.translation() - all[k - 1].T_world_cam.translation()).norm();
+        eval_all.alignment.scale *
+        (all[k].T_world_cam.translation() - all[k - 1].T_world_cam.translation()).norm();
   out.ate_percent =
       evaluateTrajectory(run.ground_truth, estimated(run, true), EvaluationOptions()).ate_rmse_percent;
   return out;
