@@ -13,6 +13,8 @@
 /// every pipeline call is guarded, a refused sample or reconfiguration is counted or logged and reported in
 /// vo/status.
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -147,19 +149,18 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     } else if (why.empty() && (gray.cols != int(info->width) || gray.rows != int(info->height))) {
       why = "image size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
             " does not match camera_info " + std::to_string(info->width) + "x" + std::to_string(info->height);
-    } else if (why.empty() && last_stamp_ && image->header.stamp <= *last_stamp_) {
-      why = image->header.stamp == *last_stamp_
-                ? "duplicate image stamp " + std::to_string(image->header.stamp.toSec())
-                : "image stamp went backwards by " +
-                      std::to_string((*last_stamp_ - image->header.stamp).toSec()) +
-                      " s (call vo/reset after restarting a bag)";
-    } else if (why.empty()) {
-      why = checkExposure(gray, params_.min_exposure_stddev, params_.max_saturated_ratio);
     }
+    std::string stamp_note;
+    bool restart_tracking = false;
+    if (why.empty()) why = checkExposure(gray, params_.min_exposure_stddev, params_.max_saturated_ratio);
+    // Last: it may change the stream state (an image that confirms a jump), which only a usable image may do.
+    if (why.empty() && last_stamp_) why = checkStamp(image->header.stamp, &stamp_note, &restart_tracking);
     if (!why.empty()) return reject(why, header);
 
     const double t = timeOf(image->header.stamp);
-    std::string note = frameGapNote(image->header.stamp);
+    std::string note = restart_tracking ? std::string() : frameGapNote(image->header.stamp);
+    if (!stamp_note.empty()) note = stamp_note + (note.empty() ? "" : "; " + note);
+    if (restart_tracking && pipeline_) pipeline_->restartTracking();
     last_stamp_ = image->header.stamp;
     if (!started_ && !readyToStart(t, &why, &note)) return hold(why, image->header, t);
     const PinholeCamera camera = fromCameraInfo(*info);
@@ -197,6 +198,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
     if (!started_) pending_state_.reset();  // consumed by the first image (applyInitialState)
     started_ = true;
+    // Refused by the core's input check (e.g. a frozen frame): BAD_INPUT with the core's reason, nothing
+    // published; the pipeline coasts and tracks the next fresh image.
+    if (result.input_rejected) return reject(result.message, header);
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);
     // The last guard: a pose that is not finite, not rigid (a non-unit quaternion) or absurdly far is never
     // published; the frame is reported LOST with the reason, the outputs keep their last pose.
@@ -485,6 +489,62 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     return params_.base_frame.empty() ? child_camera_frame_ : params_.base_frame;
   }
 
+  /// The stamp of an image against the last accepted one (last_stamp_ set). A jump (more than
+  /// stampJumpLimit() ahead, or backwards) is refused once as suspect: one bad stamp must not poison
+  /// last_stamp_ (issue 12: one image stamped 5 s ahead made every later frame "backwards"). The next image
+  /// decides: on the old timeline, the suspect was an outlier; just after the suspect, the stream really
+  /// jumped: forward, tracking restarts from the current pose (*restart_tracking, no extrapolation over the
+  /// gap); backward (e.g. a restarted bag), the trajectory restarts as after vo/reset. Empty = accepted,
+  /// *note says what happened; else why the image is refused.
+  std::string checkStamp(const ros::Time& stamp, std::string* note, bool* restart_tracking) {
+    const double limit_s = stampJumpLimit();
+    const double since_last_s = (stamp - *last_stamp_).toSec();
+    if (since_last_s > 0.0 && since_last_s <= limit_s) {  // the timeline goes on
+      if (suspect_stamp_) {
+        const double off_s = (*suspect_stamp_ - *last_stamp_).toSec();
+        *note = "the image stamped " + std::to_string(std::abs(off_s)) + " s " +
+                (off_s > 0.0 ? "ahead" : "back") + " was an outlier: rejected, the stream goes on";
+        suspect_stamp_.reset();
+      }
+      return "";
+    }
+    if (suspect_stamp_ && stamp > *suspect_stamp_ && (stamp - *suspect_stamp_).toSec() <= limit_s) {
+      const double jump_s = (*suspect_stamp_ - *last_stamp_).toSec();
+      suspect_stamp_.reset();
+      NODELET_WARN_STREAM("image stamps jumped " << (jump_s > 0.0 ? "forward" : "back") << " by "
+                                                 << std::abs(jump_s) << " s, confirmed by the next image");
+      if (jump_s > 0.0) {
+        *note = "image stamps jumped forward by " + std::to_string(jump_s) +
+                " s and the next image confirmed it: tracking restarts from the current pose";
+        *restart_tracking = true;
+        return "";
+      }
+      std_srvs::Trigger::Request req;
+      std_srvs::Trigger::Response res;
+      resetBody(req, res);
+      have_epoch_ = false;   // the pipeline's clock starts again at this stream
+      ++counts_.num_images;  // this image, counted before the reset
+      *note = "image stamps jumped back by " + std::to_string(-jump_s) +
+              " s and the next image confirmed it (a restarted stream?): the trajectory restarts as after "
+              "vo/reset";
+      return "";
+    }
+    if (stamp == *last_stamp_) return "duplicate image stamp " + std::to_string(stamp.toSec());
+    suspect_stamp_ = stamp;
+    if (since_last_s < 0.0)
+      return "image stamp went backwards by " + std::to_string(-since_last_s) +
+             " s: refused as suspect (the next image decides: on the old timeline it was an outlier, just "
+             "after this one the trajectory restarts)";
+    return "image stamp jumped forward by " + std::to_string(since_last_s) + " s (more than " +
+           std::to_string(limit_s) +
+           " s): refused as suspect (the next image decides: on the old timeline it was an outlier, just "
+           "after "
+           "this one the stream really jumped)";
+  }
+  /// Largest forward step between two images that is not a jump: 1 s, or ~max_frame_gap_factor periods of
+  /// a slower camera.
+  double stampJumpLimit() const { return std::max(1.0, params_.max_frame_gap_factor * period_s_); }
+
   /// A note when the gap to the previous image is much longer than the usual period (dropped frames).
   std::string frameGapNote(const ros::Time& stamp) {
     std::string note;
@@ -637,6 +697,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     have_last_pose_ = false;
     last_pose_ = last_child_pose_ = Pose::Identity();
     last_stamp_.reset();
+    suspect_stamp_.reset();
     period_s_ = 0.0;
     path_.poses.clear();
     counts_ = VoStatus();
@@ -789,6 +850,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
 
   // Stream state.
   std::optional<ros::Time> last_stamp_;
+  /// An image refused for a stamp jump (checkStamp()): the next image decides whether it was an outlier.
+  std::optional<ros::Time> suspect_stamp_;
   double period_s_ = 0.0;  ///< smoothed image period
   Clock::time_point last_frame_wall_ = Clock::now();
   int info_count_ = 0;

@@ -165,6 +165,7 @@ template <class C, class V>
 void pipelineFields(C& c, V& v) {
   v.enumeration("trajectory_mode", c.trajectory_mode);
   v("max_consecutive_failed_frames", c.max_consecutive_failed_frames, 1, 100000);
+  v("frozen_frame_max_mean_abs_diff", c.frozen_frame_max_mean_abs_diff, 0.0, 255.0);
 }
 
 template <class C, class V>

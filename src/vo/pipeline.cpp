@@ -102,7 +102,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       keyframe_policy_(config.keyframe),
       mapper_(config.map),
       altimeter_(config.altimeter),
-      inertial_(config.imu) {
+      inertial_(config.imu),
+      frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff) {
   config_.validate();
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
@@ -121,6 +122,7 @@ void Pipeline::reset() {
     async_ba_->takeCovariance();
   }
   tracker_.reset();
+  frozen_detector_.reset();
   map_.clear();
   frame_index_ = -1;
   stage_ = PipelineStage::kInitialising;
@@ -154,6 +156,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
 
 void Pipeline::restartTracking() {
   tracker_.reset();
+  frozen_detector_.reset();
   // Continue from the current pose as after a loss, so the trajectory does not jump.
   if (stage_ != PipelineStage::kInitialising) stage_ = PipelineStage::kRecovering;
   reference_.valid = false;
@@ -282,6 +285,30 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   }
   result.processed = true;
   timestamp_s_ = timestamp_s;
+  // A frozen frame (stuck frame buffer) is not given to the tracker: tracked, it would give a confident
+  // zero-motion pose and teach the motion model that the camera stood still. The tracker keeps the last
+  // fresh image, so tracking continues from it when fresh images return; the output coasts meanwhile.
+  double mean_abs_diff = 0.0;
+  if (frozen_detector_.check(gray, &mean_abs_diff)) {
+    result.input_rejected = true;
+    result.state =
+        stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
+    std::ostringstream why;
+    why.precision(3);
+    why << "frozen frame: the image repeats the previous one (mean absolute difference " << mean_abs_diff
+        << " < pipeline.frozen_frame_max_mean_abs_diff " << config_.pipeline.frozen_frame_max_mean_abs_diff
+        << " gray levels), not tracked";
+    holdPose(&result, why.str());
+    fillInertialOutput(&result);
+    T_world_cam_ = result.T_world_cam;
+    state_ = result.state;
+    result.metric_scale = metric_scale_;
+    result.scale_source = scale_source_;
+    result.num_map_points = static_cast<int>(map_.numPoints());
+    result.num_keyframes = static_cast<int>(map_.numKeyframes());
+    result.times.total_ms = msSince(start);
+    return result;
+  }
   // The handed-over state belongs to the first image.
   if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_) {
     carried_inertial_ = inertial_.bodyState(timestamp_s, T_world_cam_initial_, *v_initial_world_mps_, {});

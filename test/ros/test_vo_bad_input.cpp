@@ -10,10 +10,15 @@
 ///
 /// Cases (~case): encoding, info_missing, size_mismatch, bad_intrinsics, black, saturated, stamps, dropped,
 /// resolution; issue 12: distortion (plumb_bob with a D of 3, 6, 100), mono16_bigendian (converted, tracked),
-/// absurd_intrinsics (cx = 1e6, 1e9, fx = 1e9: rejected, then good camera_info again); and samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with
-/// the dataset's IMU and altimeter streams published before each image (lock step: the nodelet has queued
-/// them before the image is sent), the initial state handed over, and bad samples in place of part 2's
-/// image: non-finite, REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
+/// absurd_intrinsics (cx = 1e6, 1e9, fx = 1e9: rejected, then good camera_info again), frozen (the last image
+/// repeated with fresh stamps: BAD_INPUT "frozen frame"), stamp_jump (one image stamped 5 s, then one a year,
+/// ahead: each refused as suspect, the next good frame tracked; then the stream's clock really jumps 3 s:
+/// one image refused, the next confirms and is processed, tracking goes on), stamp_restart (the clock goes
+/// back 2 s for good: one image refused, the next restarts the trajectory by itself, tracking again); and
+/// samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with the dataset's
+/// IMU and altimeter streams published before each image (lock step: the nodelet has queued them before the
+/// image is sent), the initial state handed over, and bad samples in place of part 2's image: non-finite,
+/// REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
 /// +-Inf ranges; and a 0.2 s gap in the IMU stream before the last 4 images. Checks besides: every bad
 /// sample counted (exactly), the status says so, every good sample used, nav/odometry at the IMU rate after
 /// the bad samples, the gap reported, metric nav/odometry after it.
@@ -156,7 +161,7 @@ class VoBadInputTest : public ::testing::Test {
     poses_.push_back(*m);
   }
 
-  ros::Time stamp(size_t i) const { return toStamp(kEpoch, dataset_->timestamp(i)); }
+  ros::Time stamp(size_t i) const { return toStamp(kEpoch, dataset_->timestamp(i)) + stamp_offset_; }
   cv::Mat image(size_t i) const { return dataset_->loadImage(i); }
   sensor_msgs::CameraInfo info(const ros::Time& t, double scale = 1.0) const {
     const PinholeCamera& c = dataset_->camera();
@@ -237,6 +242,7 @@ class VoBadInputTest : public ::testing::Test {
   std::mutex mutex_;
   std::vector<VoStatus> statuses_;
   std::vector<geometry_msgs::PoseStamped> poses_;
+  ros::Duration stamp_offset_{0.0};  ///< added to every stamp (case stamp_jump: the stream's timeline moved)
   // Case "samples".
   bool fused_ = false;
   std::string manager_;
@@ -257,7 +263,7 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
   for (const size_t end = next + kGoodBefore; next < end; ++next)
     tracked |= sendGood(next).state == VoStatus::STATE_TRACKING;
   ASSERT_TRUE(tracked) << "the VO never tracked on good input";
-  const size_t poses_before = poses_.size();
+  size_t poses_before = poses_.size();  // the no-jump check starts here (case stamp_restart: later)
   const double step_before = maxStep(0, poses_before);
   ASSERT_GT(step_before, 0.0);
 
@@ -329,6 +335,54 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
     expectBad(send(imageMsg(image(next), previous, "mono8"), info(previous)), "duplicate");
     expectBad(send(imageMsg(image(next), older, "mono8"), info(older)), "backwards");
     ++next;
+  } else if (case_ == "frozen") {
+    // Issue 12: a stuck frame buffer (the last image repeated with fresh stamps for 1 s) was tracked as
+    // TRACKING with zero motion, then the pose jumped. Each repeat is BAD_INPUT naming the frozen frame; the
+    // good frames after it (their stamps moved on meanwhile) track without a jump.
+    const cv::Mat stuck = image(next - 1);
+    for (const size_t end = next + 10; next < end; ++next)
+      expectBad(send(imageMsg(stuck, stamp(next), "mono8"), info(stamp(next))), "frozen frame");
+  } else if (case_ == "stamp_jump") {
+    // Issue 12: one image stamped 5 s (or a year) ahead was accepted and every later frame refused as
+    // "backwards" until vo/reset. The jumped image is refused as suspect; the next, on the old timeline,
+    // shows it was an outlier, and tracking goes on.
+    for (double ahead_s : {5.0, 365.25 * 86400.0}) {
+      const ros::Time ahead = stamp(next) + ros::Duration(ahead_s);
+      expectBad(send(imageMsg(image(next), ahead, "mono8"), info(ahead)), "jumped forward");
+      ++next;
+      const VoStatus s = sendGood(next++);
+      EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+      EXPECT_NE(s.message.find("ahead was an outlier"), std::string::npos) << s.message;
+    }
+    // A real jump of the stream's clock (3 s ahead from now on): the first image is refused as suspect, the
+    // next confirms the new timeline and is processed (tracking restarts from the current pose), and the
+    // good frames after it go on.
+    stamp_offset_ = ros::Duration(3.0);
+    expectBad(sendGood(next++), "jumped forward");
+    const VoStatus confirmed = sendGood(next++);
+    EXPECT_TRUE(confirmed.processed) << confirmed.state_name << ": " << confirmed.message;
+    EXPECT_NE(confirmed.message.find("next image confirmed it"), std::string::npos) << confirmed.message;
+  } else if (case_ == "stamp_restart") {
+    // The stream's clock goes back 2 s for good (a restarted bag or camera): the first image is refused as
+    // suspect, the next confirms the old-again timeline and the trajectory restarts (as after vo/reset), with
+    // a status saying so; no call of vo/reset is needed. The no-jump check starts with the new trajectory.
+    stamp_offset_ = ros::Duration(-2.0);
+    expectBad(sendGood(next++), "went backwards");
+    const ros::Time restart = stamp(next);
+    const VoStatus confirmed = sendGood(next++);
+    EXPECT_TRUE(confirmed.processed) << confirmed.state_name << ": " << confirmed.message;
+    EXPECT_NE(confirmed.message.find("jumped back"), std::string::npos) << confirmed.message;
+    EXPECT_NE(confirmed.message.find("trajectory restarts"), std::string::npos) << confirmed.message;
+    ASSERT_TRUE(waitFor(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          // From the end: the old trajectory has poses with the same stamps (20 frames back).
+          for (size_t k = poses_.size(); k-- > 0;)
+            if (poses_[k].header.stamp == restart) return poses_before = k + 1, true;
+          return false;
+        },
+        10.0))
+        << "no pose for the image that restarted the trajectory";
   } else if (case_ == "dropped") {
     next += 4;  // four frames never arrive
     const VoStatus s = sendGood(next++);

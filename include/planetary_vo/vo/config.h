@@ -159,6 +159,10 @@ enum class TrajectoryMode {
 struct PipelineConfig {
   TrajectoryMode trajectory_mode = TrajectoryMode::kMap;
   int max_consecutive_failed_frames = 10;  ///< after this many frames without a pose, reinitialise
+  /// An image whose mean absolute difference to the previous input image (subsampled, gray levels) is below
+  /// this is a frozen frame (a stuck frame buffer): refused by the input check (input_check.h), not tracked;
+  /// 0 = off.
+  double frozen_frame_max_mean_abs_diff = 0.5;
 };
 
 /// Laser-altimeter aiding (issue 10): the metric scale of the map from the altimeter's slant range against

@@ -103,6 +103,10 @@ struct FrameResult {
   /// What changed in the map during this frame (map_events.h): the feed of the terrain map.
   MapEvents map_events;
   StageTimesMs times;
+  /// The input check refused the image (input_check.h, e.g. a frozen frame: the same image as the previous
+  /// one): the chain did not see it, state is kLost, T_world_cam the last good pose moved on by the motion
+  /// prior (map mode), and message names the cause. The nodelet reports such a frame as BAD_INPUT.
+  bool input_rejected = false;
   /// Human-readable detail: why a model was rejected, why tracking failed, what the keyframe policy decided.
   std::string message;
 

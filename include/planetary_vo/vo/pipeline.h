@@ -47,6 +47,7 @@
 #include "planetary_vo/vo/frame_result.h"
 #include "planetary_vo/vo/inertial_aiding.h"
 #include "planetary_vo/vo/initializer.h"
+#include "planetary_vo/vo/input_check.h"
 #include "planetary_vo/vo/keyframe_policy.h"
 #include "planetary_vo/vo/klt_tracker.h"
 #include "planetary_vo/vo/map.h"
@@ -225,6 +226,7 @@ class Pipeline {
   AltimeterAiding altimeter_;
   InertialAiding inertial_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
+  FrozenFrameDetector frozen_detector_;
   /// setPriorPlaneNormal()'s override of the configured plane-normal prior, kept across reconfigure().
   std::optional<Eigen::Vector3d> prior_plane_normal_override_cam_;
 

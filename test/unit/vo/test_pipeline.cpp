@@ -267,6 +267,9 @@ TEST(Pipeline, HoverInventsNoMotion) {
     VoConfig config;
     config.pipeline.trajectory_mode = mode;
     config.bundle_adjustment.enabled = mode == TrajectoryMode::kMap;
+    // A perfect hover repeats the rendered image exactly, which the frozen-camera check would refuse; this
+    // test is about the chain itself.
+    config.pipeline.frozen_frame_max_mean_abs_diff = 0.0;
     Pipeline pipeline(config, camera);
     for (int i = 0; i < 30; ++i) {
       const FrameResult r = pipeline.process(i / kRateHz, image);
@@ -324,6 +327,116 @@ TEST(Pipeline, RecoversFromABlackoutWithoutJumping) {
   // The origin is where the first keyframe was; the recovered pose must be far from it (no reset).
   EXPECT_GT(run.results[recovered_index].T_world_cam.translation().norm(),
             0.5 * run.results[static_cast<size_t>(blackout_begin - 1)].T_world_cam.translation().norm());
+}
+
+/// The planar descent with a frozen camera: frames [freeze_begin, freeze_end) repeat the image of frame
+/// freeze_begin - 1 with fresh stamps (a stuck frame buffer), then fresh images return.
+SequenceRun runFrozenSequence(const VoConfig& config, int num_frames, int freeze_begin, int freeze_end) {
+  static const cv::Mat texture = groundTexture();
+  const PinholeCamera camera = test::planarDescentCamera();
+  Pipeline pipeline(config, camera);
+  SequenceRun run;
+  cv::Mat last_fresh;
+  for (int i = 0; i < num_frames; ++i) {
+    const double t = i / kRateHz;
+    run.ground_truth.push_back({t, truePose(t)});
+    const bool frozen = i >= freeze_begin && i < freeze_end;
+    if (!frozen) last_fresh = renderView(texture, camera, truePose(t));
+    run.results.push_back(pipeline.process(t, last_fresh.clone()));
+  }
+  return run;
+}
+
+/// Output steps between consecutive processed frames, in ground-truth metres (Sim(3) scale of the alignment
+/// of all processed poses), by the frame index of the step's end, and the Sim(3) ATE (%) of the pose
+/// estimates.
+struct StepsAndAte {
+  std::map<int64_t, double> step_m;
+  double ate_percent = 0.0;
+};
+StepsAndAte stepsAndAte(const SequenceRun& run) {
+  std::vector<const FrameResult*> processed;
+  Trajectory all;
+  for (const FrameResult& r : run.results)
+    if (r.processed && r.state != TrackingState::kInitialising) {
+      processed.push_back(&r);
+      all.push_back({r.timestamp_s, r.T_world_cam});
+    }
+  const TrajectoryEvaluation eval_all = evaluateTrajectory(run.ground_truth, all, EvaluationOptions());
+  StepsAndAte out;
+  for (size_t k = 1; k < all.size(); ++k)
+    out.step_m[processed[k]->frame_index] =
+        eval_all.alignment.scale *
+        (all[k].T_world_cam.translation() - all[k - 1].T_world_cam.translation()).norm();
+  out.ate_percent =
+      evaluateTrajectory(run.ground_truth, estimated(run, true), EvaluationOptions()).ate_rmse_percent;
+  return out;
+}
+
+TEST(Pipeline, FrozenCameraIsRefusedAndTrackingContinuesWithoutAJump) {
+  // Issue 12: the same image repeated with fresh stamps for 2 s was tracked (TRACKING, many inliers, zero
+  // motion), then the chain jumped when fresh images returned.
+  const VoConfig config;
+  ASSERT_GT(config.pipeline.frozen_frame_max_mean_abs_diff, 0.0) << "the check is on by default";
+  const int freeze_begin = 30, freeze_end = 30 + static_cast<int>(2.0 * kRateHz), num_frames = 80;
+  const SequenceRun clean = runFrozenSequence(config, num_frames, -1, -1);
+  const SequenceRun run = runFrozenSequence(config, num_frames, freeze_begin, freeze_end);
+
+  for (const FrameResult& r : clean.results) EXPECT_FALSE(r.input_rejected) << "frame " << r.frame_index;
+  int tracking_after = 0;
+  for (int i = 0; i < num_frames; ++i) {
+    const FrameResult& r = run.results[static_cast<size_t>(i)];
+    ASSERT_TRUE(r.processed);
+    EXPECT_TRUE(r.T_world_cam.matrix().allFinite());
+    if (i >= freeze_begin && i < freeze_end) {
+      EXPECT_TRUE(r.input_rejected) << "frame " << i << ": " << toString(r.state) << ", " << r.message;
+      EXPECT_EQ(r.state, TrackingState::kLost) << "frame " << i;
+      EXPECT_FALSE(r.hasPoseEstimate()) << "frame " << i;
+      EXPECT_NE(r.message.find("frozen frame"), std::string::npos) << "frame " << i << ": " << r.message;
+    } else {
+      EXPECT_FALSE(r.input_rejected) << "frame " << i << ": " << r.message;
+    }
+    if (i >= freeze_end && r.hasPoseEstimate()) ++tracking_after;
+  }
+  EXPECT_GE(tracking_after, num_frames - freeze_end - 15) << "tracking continues after the freeze";
+
+  // No jump: the output coasts through the freeze at the keyframe velocity; the first fresh image is
+  // tracked, and its pose corrects the coast by the motion prior's error over the freeze (constant velocity
+  // against 3.4 m/s^2 of acceleration for 2 s: ~7 m, plus the velocity's error), a fraction of the distance
+  // flown meanwhile; every other step stays near the vehicle's, and the ATE near the run without the freeze.
+  double true_step_m = 0.0, frozen_distance_m = 0.0;
+  for (int i = 1; i < num_frames; ++i) {
+    const double d = (run.ground_truth[size_t(i)].T_world_cam.translation() -
+                      run.ground_truth[size_t(i - 1)].T_world_cam.translation())
+                         .norm();
+    true_step_m = std::max(true_step_m, d);
+    if (i >= freeze_begin && i <= freeze_end) frozen_distance_m += d;
+  }
+  const StepsAndAte with = stepsAndAte(run), without = stepsAndAte(clean);
+  double clean_step = 0.0, step = 0.0;
+  for (const auto& [frame, d] : without.step_m) clean_step = std::max(clean_step, d);
+  for (const auto& [frame, d] : with.step_m)
+    if (frame != freeze_end) step = std::max(step, d);
+  ASSERT_TRUE(with.step_m.count(freeze_end));
+  const double correction = with.step_m.at(freeze_end);
+  EXPECT_TRUE(run.results[size_t(freeze_end)].hasPoseEstimate()) << run.results[size_t(freeze_end)].message;
+  std::cout << "frozen camera for " << freeze_end - freeze_begin << " frames (" << frozen_distance_m
+            << " m flown): correction at the first fresh frame " << correction << " m, largest other step "
+            << step << " m (without the freeze " << clean_step << " m, true " << true_step_m
+            << " m), Sim(3) ATE " << with.ate_percent << " % (without " << without.ate_percent << " %)\n";
+  EXPECT_LT(clean_step, 1.5 * true_step_m);
+  EXPECT_LT(step, 1.5 * true_step_m);
+  EXPECT_LT(correction, 0.3 * frozen_distance_m);
+  EXPECT_LT(with.ate_percent, 2.0 * without.ate_percent);
+}
+
+TEST(Pipeline, FrozenFrameCheckOffTracksTheRepeatedImage) {
+  // The switch: with pipeline.frozen_frame_max_mean_abs_diff = 0 a repeated image goes to the tracker.
+  VoConfig config;
+  config.pipeline.frozen_frame_max_mean_abs_diff = 0.0;
+  const SequenceRun run = runFrozenSequence(config, 40, 30, 35);
+  for (const FrameResult& r : run.results) EXPECT_FALSE(r.input_rejected) << "frame " << r.frame_index;
+  EXPECT_EQ(run.results[32].state, TrackingState::kTracking) << run.results[32].message;
 }
 
 TEST(Pipeline, RejectsWrongImagesAndResets) {
