@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iomanip>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <variant>
 
@@ -147,8 +149,13 @@ HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text) {
   if (root && !root.IsNull()) {
     if (!root.IsMap()) throw HazardConfigError({"the document must be a map of sections"});
     auto sections = sectionsOf(&config);
+    std::set<std::string> seen_sections;
     for (const auto& entry : root) {
       const std::string section = entry.first.IsScalar() ? entry.first.as<std::string>() : "<non-scalar>";
+      if (!seen_sections.insert(section).second) {
+        problems.push_back(section + ": duplicate section");
+        continue;
+      }
       auto s = std::find_if(sections.begin(), sections.end(),
                             [&](const auto& known) { return section == known.first; });
       if (s == sections.end()) {
@@ -159,8 +166,13 @@ HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text) {
         if (!entry.second.IsNull()) problems.push_back(section + ": expected a map of keys");
         continue;
       }
+      std::set<std::string> seen_keys;
       for (const auto& kv : entry.second) {
         const std::string key = kv.first.IsScalar() ? kv.first.as<std::string>() : "<non-scalar>";
+        if (!seen_keys.insert(key).second) {
+          problems.push_back(section + "." + key + ": duplicate key");
+          continue;
+        }
         auto f = std::find_if(s->second.begin(), s->second.end(),
                               [&](const auto& known) { return key == known.first; });
         if (f == s->second.end()) {
@@ -200,6 +212,9 @@ std::string dumpHazardMapperConfig(const HazardMapperConfig& config) {
 }
 
 HazardMapperConfig loadHazardMapperConfig(const std::string& yaml_path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(yaml_path, ec))
+    throw HazardConfigError({yaml_path + ": is a folder, not a YAML file"});
   std::ifstream in(yaml_path);
   if (!in) throw HazardConfigError({yaml_path + ": cannot be read"});
   std::stringstream text;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -197,8 +198,19 @@ VoConfig parseVoConfig(const std::string& yaml_text) {
 
   KeyCollector known;
   config_detail::forEachField(config, known);
+  // yaml-cpp keeps every duplicate of a key while rosparam keeps the last one: both are refused, so that the
+  // file and the parameter server cannot disagree.
+  std::set<std::string> seen_sections;
   for (const auto& entry : root) {
+    if (!entry.first.IsScalar()) {
+      errors.push_back("a section name must be a plain word" + lineOf(entry.first));
+      continue;
+    }
     const std::string section = entry.first.as<std::string>();
+    if (!seen_sections.insert(section).second) {
+      errors.push_back(section + ": duplicate section" + lineOf(entry.first));
+      continue;
+    }
     const auto it = std::find(known.sections.begin(), known.sections.end(), section);
     if (it == known.sections.end()) {
       errors.push_back(section + ": unknown section" + suggestion(section, known.sections) +
@@ -207,9 +219,16 @@ VoConfig parseVoConfig(const std::string& yaml_text) {
     }
     if (!entry.second.IsMap()) continue;  // reported by the parser
     const std::vector<std::string>& keys = known.keys[it - known.sections.begin()];
+    std::set<std::string> seen_keys;
     for (const auto& kv : entry.second) {
+      if (!kv.first.IsScalar()) {
+        errors.push_back(section + ": a key must be a plain word" + lineOf(kv.first));
+        continue;
+      }
       const std::string key = kv.first.as<std::string>();
-      if (std::find(keys.begin(), keys.end(), key) == keys.end())
+      if (!seen_keys.insert(key).second)
+        errors.push_back(section + "." + key + ": duplicate key" + lineOf(kv.first));
+      else if (std::find(keys.begin(), keys.end(), key) == keys.end())
         errors.push_back(section + "." + key + ": unknown key" + suggestion(key, keys) + lineOf(kv.first));
     }
   }
@@ -224,6 +243,9 @@ VoConfig parseVoConfig(const std::string& yaml_text) {
 }
 
 VoConfig loadVoConfig(const std::string& yaml_path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(yaml_path, ec))
+    throw ConfigError({yaml_path + ": is a folder, not a YAML file"});
   std::ifstream file(yaml_path);
   if (!file) throw ConfigError({yaml_path + ": cannot open the file"});
   std::stringstream text;

@@ -84,6 +84,10 @@ TEST(HazardMapperConfig, EveryBadKeyIsNamed) {
     EXPECT_NE(all.find("hazards: unknown section"), std::string::npos) << all;
     EXPECT_NE(all.find("sites.max_sites: expected an integer"), std::string::npos) << all;
   }
+  // Repeated keys and sections (rosparam would keep the last, yaml-cpp the first) and folders are errors.
+  EXPECT_THROW(parseHazardMapperConfig("area: {cell_size_m: 0.5, cell_size_m: 1.0}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("sites: {}\nsites: {}\n"), HazardConfigError);
+  EXPECT_THROW(loadHazardMapperConfig(test::sourceRoot() + "config"), HazardConfigError);
   // Ranges are the stages' own checks.
   EXPECT_THROW(parseHazardMapperConfig("area: {cell_size_m: -1}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("thresholds: {max_slope_deg: 0}\n"), HazardConfigError);

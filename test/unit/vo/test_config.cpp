@@ -351,6 +351,28 @@ TEST(VoConfig, AbsentKeysKeepDefaultsAndEmptyDocumentIsDefault) {
   EXPECT_TRUE(c == expected);
 }
 
+// Issue 12: yaml-cpp keeps both copies of a repeated key (the parser reads the first) while rosparam keeps
+// the last, so a repeated key or section is an error; a non-scalar key is a ConfigError, not yaml-cpp's
+// exception; a folder given as the config is an error, not an empty file's defaults.
+TEST(VoConfig, DuplicateAndNonScalarKeysAndFoldersAreErrors) {
+  try {
+    parseVoConfig("detector:\n  num_features: 500\n  num_features: 800\ntracker: {}\ntracker: {}\n");
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    const std::string all = e.what();
+    EXPECT_NE(all.find("detector.num_features: duplicate key (line 3)"), std::string::npos) << all;
+    EXPECT_NE(all.find("tracker: duplicate section (line 5)"), std::string::npos) << all;
+  }
+  EXPECT_THROW(parseVoConfig("detector:\n  [a, b]: 1\n"), ConfigError);
+  EXPECT_THROW(parseVoConfig("[detector]: {}\n"), ConfigError);
+  try {
+    loadVoConfig(sourceRoot() + "config");
+    FAIL() << "a folder was read as a config";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a folder"), std::string::npos) << e.what();
+  }
+}
+
 TEST(VoConfig, SyntaxErrorsAndMissingFilesThrowConfigError) {
   EXPECT_THROW(parseVoConfig("detector: [unclosed\n"), ConfigError);
   EXPECT_THROW(parseVoConfig("- a list\n- not a map\n"), ConfigError);
