@@ -60,6 +60,13 @@ std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_sat
   return "";
 }
 
+std::string frameGapNote(double gap_s, double period_s) {
+  // An int of gap / period overflowed (undefined) for a long gap at a short period, e.g. days at 1 kHz.
+  const double frames = std::min(9.0e18, std::max(0.0, std::floor(gap_s / period_s + 0.5) - 1.0));
+  return "about " + std::to_string(static_cast<long long>(frames)) + " frames dropped (gap " +
+         std::to_string(gap_s) + " s, period " + std::to_string(period_s) + " s)";
+}
+
 bool checkOutputPose(const Pose& T, std::string* why) {
   if (!T.matrix().allFinite()) {
     *why = "the pipeline returned a non-finite pose";

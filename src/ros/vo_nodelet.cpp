@@ -551,8 +551,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (last_stamp_) {
       const double dt = (stamp - *last_stamp_).toSec();
       if (period_s_ > 0.0 && dt > params_.max_frame_gap_factor * period_s_)
-        note = "about " + std::to_string(int(dt / period_s_ + 0.5) - 1) + " frames dropped (gap " +
-               std::to_string(dt) + " s, period " + std::to_string(period_s_) + " s)";
+        note = ros_io::frameGapNote(dt, period_s_);
       else
         period_s_ = period_s_ > 0.0 ? 0.9 * period_s_ + 0.1 * dt : dt;
     }

@@ -76,7 +76,8 @@ TEST(VoConversions, Mono16BigEndianIsSwappedNotTwoChannels) {
   padded.step = msg.step + 4;
   padded.data.clear();
   for (int r = 0; r < gray.rows; ++r) {
-    padded.data.insert(padded.data.end(), msg.data.begin() + r * msg.step, msg.data.begin() + (r + 1) * msg.step);
+    padded.data.insert(padded.data.end(), msg.data.begin() + r * msg.step,
+                       msg.data.begin() + (r + 1) * msg.step);
     padded.data.insert(padded.data.end(), 4, 0xEE);
   }
   ASSERT_TRUE(toGray8(boost::make_shared<sensor_msgs::Image>(padded), &out, &why)) << why;
@@ -421,6 +422,17 @@ TEST(VoConversions, DifferentiatedPosesGiveBodyRates) {
   EXPECT_TRUE(v.isApprox(Eigen::Vector3d(10.0, 20.0, -30.0), 1e-12));
   EXPECT_TRUE(w.isApprox(Eigen::Vector3d(0.0, 0.2, 0.0), 1e-9));
   EXPECT_FALSE(differentiatePoses(a, b, 0.0, &v, &w));
+}
+
+// Issue 12: the note computed int(gap / period), undefined beyond 2^31 frames (a gap of days at 1 kHz).
+TEST(VoConversions, FrameGapNoteCountsWithoutOverflow) {
+  EXPECT_NE(frameGapNote(0.5, 0.1).find("about 4 frames dropped"), std::string::npos)
+      << frameGapNote(0.5, 0.1);
+  // A year at 1 kHz: 3.15e10 frames, beyond any int.
+  const std::string year = frameGapNote(365.0 * 86400.0, 1e-3);
+  EXPECT_NE(year.find("about 31535999999 frames dropped"), std::string::npos) << year;
+  EXPECT_EQ(year.find("-"), std::string::npos) << year;  // never a negative count
+  EXPECT_NE(frameGapNote(1e30, 1e-9).find("about 9000000000000000000 frames"), std::string::npos);
 }
 
 TEST(VoConversions, PointCloudHasXyzAndObservations) {

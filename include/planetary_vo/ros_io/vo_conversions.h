@@ -25,8 +25,8 @@
 
 namespace planetary_vo::ros_io {
 
-/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size, finite
-/// coefficients, then PinholeCamera::isValid() of fromCameraInfo() (distortion model and its number of
+/// @brief Checks a CameraInfo the pipeline can use: finite positive fx, fy, finite cx, cy, non-zero size,
+/// finite coefficients, then PinholeCamera::isValid() of fromCameraInfo() (distortion model and its number of
 /// coefficients, principal point inside the image, plausible field of view, distortion invertible over the
 /// image). Returns "" when usable, else what is wrong.
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
@@ -34,6 +34,11 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
 /// @brief Checks that an 8-bit image is neither blank (grey-level stddev below min_stddev: black, or any
 /// uniform frame) nor saturated (more than max_saturated_ratio of the pixels at 255). Returns "" when usable.
 std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
+
+/// The vo/status note for a gap of gap_s between two images at the usual period_s: "about N frames dropped
+/// (gap ... s, period ... s)", N = round(gap / period) - 1 computed without overflow (64-bit, clamped), for
+/// any gap and period > 0.
+std::string frameGapNote(double gap_s, double period_s);
 
 /// Largest position magnitude (VO units) a published pose may have: beyond it the estimate has diverged.
 constexpr double kMaxOutputPositionMagnitude = 1e9;
