@@ -16,12 +16,13 @@
 namespace planetary_vo {
 
 /// Where the chain stands. Ordered from best to worst only loosely: kRecovered is a good pose on a
-/// re-initialised map (scale bridged), kLost a held pose.
+/// re-initialised map (scale bridged), kLost a predicted (coasting) pose.
 enum class TrackingState : uint8_t {
   kInitialising =
       0,           ///< no map (or no reference frame) yet; T_world_cam is the reference pose, not an estimate
   kTracking = 1,   ///< pose estimated from the map (map mode) or from an accepted two-view model (unit steps)
-  kLost = 2,       ///< this frame gave no pose; T_world_cam holds the last good pose
+  kLost = 2,       ///< this frame gave no pose; T_world_cam coasts from the last good pose (map mode:
+                   ///< the IMU's state, else constant velocity; frame-to-frame mode: held)
   kRecovered = 3,  ///< first pose after a re-initialisation; the new map was attached to the old trajectory
 };
 /// "initialising", "tracking", "lost", "recovered".
