@@ -95,21 +95,13 @@ endif()
 #                        malformed vo/map_events rejected
 #   ros_test_hazard_conversions  gtest, no master: hazard products <-> messages
 # ---------------------------------------------------------------------------------------------------------------
-catkin_add_gtest(ros_test_vo_conversions test/ros/test_vo_conversions.cpp)
-if(TARGET ros_test_vo_conversions)
-  target_link_libraries(ros_test_vo_conversions planetary_vo_ros GTest::gtest_main)
-  planetary_vo_ros_target(ros_test_vo_conversions)
-endif()
-catkin_add_gtest(ros_test_hazard_conversions test/ros/test_hazard_conversions.cpp)
-if(TARGET ros_test_hazard_conversions)
-  target_link_libraries(ros_test_hazard_conversions planetary_vo_ros GTest::gtest_main)
-  planetary_vo_ros_target(ros_test_hazard_conversions)
-endif()
-catkin_add_gtest(ros_test_map_event_conversions test/ros/test_map_event_conversions.cpp)
-if(TARGET ros_test_map_event_conversions)
-  target_link_libraries(ros_test_map_event_conversions planetary_vo_ros GTest::gtest_main)
-  planetary_vo_ros_target(ros_test_map_event_conversions)
-endif()
+foreach(name vo_conversions hazard_conversions map_event_conversions)
+  catkin_add_gtest(ros_test_${name} test/ros/test_${name}.cpp)
+  if(TARGET ros_test_${name})
+    target_link_libraries(ros_test_${name} planetary_vo_ros GTest::gtest_main)
+    planetary_vo_ros_target(ros_test_${name})
+  endif()
+endforeach()
 
 # A short rendered Lunar descent (256 x 256, 6 s at 10 Hz) and the bag the player writes from it.
 set(VO_TEST_DATASET ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down)

@@ -169,6 +169,38 @@ LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result,
   return msg;
 }
 
+terrain::LandingSiteResult fromLandingSitesMsg(const LandingSites& msg, terrain::LandingSiteParams* params) {
+  terrain::LandingSiteResult result;
+  result.reason = msg.reason;
+  result.cells_in_reach = msg.cells_in_reach;
+  result.cells_known = msg.cells_known;
+  result.cells_safe = msg.cells_safe;
+  for (const LandingSite& m : msg.sites) {
+    terrain::LandingSite s;
+    s.x_m = m.position.x;
+    s.y_m = m.position.y;
+    s.elevation_m = m.position.z;
+    s.slope_deg = m.slope_deg;
+    s.roughness_m = m.roughness_m;
+    s.slope_sigma_deg = m.slope_sigma_deg;
+    s.roughness_sigma_m = m.roughness_sigma_m;
+    s.slope_margin_deg = m.slope_margin_deg;
+    s.roughness_margin_m = m.roughness_margin_m;
+    s.clearance_m = m.clearance_m;
+    s.distance_to_target_m = m.distance_to_target_m;
+    s.score = m.score;
+    result.sites.push_back(s);
+  }
+  result.cells_qualifying = static_cast<int>(result.sites.size());
+  if (params != nullptr) {
+    params->target_x_m = msg.target.x;
+    params->target_y_m = msg.target.y;
+    params->confidence_k = msg.confidence_k;
+    params->min_clearance_m = msg.min_clearance_m;
+  }
+  return result;
+}
+
 geometry_msgs::PoseArray toPoseArray(const LandingSites& sites) {
   geometry_msgs::PoseArray poses;
   poses.header = sites.header;

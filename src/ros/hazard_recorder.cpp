@@ -66,34 +66,8 @@ class HazardRecorder {
 
   void onSites(const LandingSites::ConstPtr& msg) {
     try {
-      terrain::LandingSiteResult result;
-      result.reason = msg->reason;
-      result.cells_in_reach = msg->cells_in_reach;
-      result.cells_known = msg->cells_known;
-      result.cells_safe = msg->cells_safe;
       terrain::LandingSiteParams params;
-      params.target_x_m = msg->target.x;
-      params.target_y_m = msg->target.y;
-      params.confidence_k = msg->confidence_k;
-      params.min_clearance_m = msg->min_clearance_m;
-      for (size_t i = 0; i < msg->sites.size(); ++i) {
-        const LandingSite& m = msg->sites[i];
-        terrain::LandingSite s;
-        s.x_m = m.position.x;
-        s.y_m = m.position.y;
-        s.elevation_m = m.position.z;
-        s.slope_deg = m.slope_deg;
-        s.roughness_m = m.roughness_m;
-        s.slope_sigma_deg = m.slope_sigma_deg;
-        s.roughness_sigma_m = m.roughness_sigma_m;
-        s.slope_margin_deg = m.slope_margin_deg;
-        s.roughness_margin_m = m.roughness_margin_m;
-        s.clearance_m = m.clearance_m;
-        s.distance_to_target_m = m.distance_to_target_m;
-        s.score = m.score;
-        result.sites.push_back(s);
-      }
-      result.cells_qualifying = static_cast<int>(result.sites.size());
+      const terrain::LandingSiteResult result = ros_io::fromLandingSitesMsg(*msg, &params);
       const std::string path = dir_ + "/landing_sites.yaml";
       terrain::writeLandingSites(path + ".tmp", result, params);
       std::filesystem::rename(path + ".tmp", path);

@@ -97,13 +97,18 @@ bool readField(const YAML::Node& node, const FieldPtr& field, std::string* why) 
   return true;
 }
 
+/// The landing area is given once (`area`) and copied into the stages that use it.
+HazardMapperConfig withArea(HazardMapperConfig c) {
+  c.map.area = c.area;
+  c.densifier.area = c.area;
+  return c;
+}
+
 /// Range checks by the stages themselves (their constructors and the site search on a tiny grid), so that
 /// the limits live in one place each.
 std::vector<std::string> validationErrors(const HazardMapperConfig& c) {
   std::vector<std::string> problems;
-  HazardMapperConfig effective = c;
-  effective.map.area = c.area;
-  effective.densifier.area = c.area;
+  const HazardMapperConfig effective = withArea(c);
   try {
     (void)c.area.geometry();
   } catch (const std::invalid_argument& e) {
@@ -186,9 +191,7 @@ HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text) {
   }
   if (problems.empty()) problems = validationErrors(config);
   if (!problems.empty()) throw HazardConfigError(problems);
-  config.map.area = config.area;
-  config.densifier.area = config.area;
-  return config;
+  return withArea(config);
 }
 
 std::string dumpHazardMapperConfig(const HazardMapperConfig& config) {
@@ -227,14 +230,6 @@ HazardMapperConfig loadHazardMapperConfig(const std::string& yaml_path) {
     throw HazardConfigError(problems);
   }
 }
-
-namespace {
-HazardMapperConfig withArea(HazardMapperConfig c) {
-  c.map.area = c.area;
-  c.densifier.area = c.area;
-  return c;
-}
-}  // namespace
 
 HazardMapper::HazardMapper(const HazardMapperConfig& config) : config_(withArea(config)), map_(config_.map) {
   const std::vector<std::string> problems = validationErrors(config_);

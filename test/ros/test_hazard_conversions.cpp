@@ -126,6 +126,15 @@ TEST(HazardConversions, SitesPosesMarkersAndCloud) {
   ASSERT_EQ(msg.sites.size(), 3u);
   EXPECT_EQ(msg.target.x, 1.0);
   EXPECT_EQ(msg.sites[2].slope_deg, 5.0);
+  terrain::LandingSiteParams back_params;
+  const terrain::LandingSiteResult back = fromLandingSitesMsg(msg, &back_params);
+  ASSERT_EQ(back.sites.size(), 3u);
+  EXPECT_EQ(back.sites[2].slope_deg, 5.0);
+  EXPECT_EQ(back.sites[1].x_m, 10.0);
+  EXPECT_TRUE(std::isnan(back.sites[1].elevation_m));
+  EXPECT_EQ(back.sites[0].score, 1.0);
+  EXPECT_EQ(back_params.target_x_m, 1.0);
+  EXPECT_EQ(back_params.min_clearance_m, params.min_clearance_m);
   const geometry_msgs::PoseArray poses = toPoseArray(msg);
   ASSERT_EQ(poses.poses.size(), 3u);
   EXPECT_EQ(poses.poses[1].position.x, 10.0);

@@ -51,6 +51,9 @@ nav_msgs::OccupancyGrid toOccupancyGrid(const cv::Mat& hazard, const terrain::Gr
 LandingSites toLandingSitesMsg(const terrain::LandingSiteResult& result,
                                const terrain::LandingSiteParams& params, bool metric,
                                const std_msgs::Header& header);
+/// The message back to the core result (sites, reason, cell counts; cells_qualifying = the sites listed) and,
+/// when params is not null, the parameters it carries (target, k, clearance; the others keep their defaults).
+terrain::LandingSiteResult fromLandingSitesMsg(const LandingSites& msg, terrain::LandingSiteParams* params);
 /// The sites as poses (best first; orientation: the map frame's, z up); a site's z is its elevation or 0.
 geometry_msgs::PoseArray toPoseArray(const LandingSites& sites);
 /// A cylinder of the clearance radius per site (the best green, the others yellow) with its rank and

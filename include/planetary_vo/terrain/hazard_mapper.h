@@ -100,8 +100,8 @@ class HazardMapper {
   /// Everything back to the state after construction (the camera is kept).
   void reset();
 
-  /// The products now (cost: the terrain model's rasterisation plus the site search; about a second over
-  /// the default 513 x 513 cells with tens of thousands of points).
+  /// The products now (cost: the terrain model's rasterisation plus the site search; 122 ms over the default
+  /// 513 x 513 cells with 5473 points in the area, the end of approach_30deg 1024 flight, vo_run prints it).
   HazardProducts products() const;
 
   const HazardMapperConfig& config() const { return config_; }

@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -342,7 +343,11 @@ int main(int argc, char** argv) {
       if (!options.quiet)
         std::printf("terrain: densified %d corners, %d tracked, %d triangulated\n", densified.seeds,
                     densified.tracked, densified.triangulated);
+      const auto products_start = std::chrono::steady_clock::now();
       const terrain::HazardProducts hazard = hazard_mapper->products();
+      const double products_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - products_start)
+              .count();
       const terrain::TerrainProducts& products = hazard.terrain;
       terrain::writeGridSet(options.terrain_dir, "terrain", products.grids);
       terrain::writeLandingSites(options.terrain_dir + "/landing_sites.yaml", hazard.sites,
@@ -354,6 +359,9 @@ int main(int argc, char** argv) {
             products.num_points, products.num_used, products.cells_known,
             products.grids.geometry.rows * products.grids.geometry.cols,
             products.metric ? "" : " (NOT metric: map units)", options.terrain_dir.c_str());
+      if (!options.quiet)
+        std::printf("terrain: products (rasters, hazard mask, landing sites) computed in %.0f ms\n",
+                    products_ms);
       if (!options.quiet && !hazard.sites.sites.empty()) {
         const terrain::LandingSite& best = hazard.sites.sites.front();
         std::printf(
