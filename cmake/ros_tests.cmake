@@ -138,7 +138,7 @@ if(TARGET GTest::gtest)
               DEPENDENCIES test_vo_node player ${vo_deps})
   foreach(case encoding info_missing size_mismatch bad_intrinsics black saturated stamps dropped resolution
                distortion mono16_bigendian absurd_intrinsics frozen stamp_jump
-               stamp_restart)
+               stamp_restart no_frame_id exposure_drop)
     add_rostest(test/ros/vo_bad_input.test ARGS case:=${case} dataset:=${VO_TEST_DATASET}
                 DEPENDENCIES test_vo_bad_input ${vo_deps})
   endforeach()

@@ -310,19 +310,24 @@ namespace {
 /// Whatever a conversion did, the pipeline gets one 8-bit channel of the message's size, or a reason.
 bool checkedGray(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
   if (gray->type() == CV_8UC1 && gray->cols == int(msg->width) && gray->rows == int(msg->height)) return true;
-  *why = "image conversion of '" + msg->encoding + "' (is_bigendian " + std::to_string(int(msg->is_bigendian)) +
-         ") gave " + std::to_string(gray->channels()) + " channel(s) of depth " + std::to_string(gray->depth()) +
-         ", " + std::to_string(gray->cols) + "x" + std::to_string(gray->rows) + ": not an 8-bit gray image";
+  *why = "image conversion of '" + msg->encoding + "' (is_bigendian " +
+         std::to_string(int(msg->is_bigendian)) + ") gave " + std::to_string(gray->channels()) +
+         " channel(s) of depth " + std::to_string(gray->depth()) + ", " + std::to_string(gray->cols) + "x" +
+         std::to_string(gray->rows) + ": not an 8-bit gray image";
   return false;
 }
 
 }  // namespace
 
-bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why) {
+bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why, int mono16_bits) {
   namespace enc = sensor_msgs::image_encodings;
   if (!isSupportedEncoding(msg->encoding)) {
     *why = "unsupported image encoding '" + msg->encoding +
            "' (accepted: mono8, mono16, rgb8, bgr8, rgba8, bgra8)";
+    return false;
+  }
+  if (mono16_bits < 8 || mono16_bits > 16) {
+    *why = "mono16 significant bits " + std::to_string(mono16_bits) + " outside 8..16";
     return false;
   }
   if (msg->width == 0 || msg->height == 0) {
@@ -350,7 +355,8 @@ bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* 
           dst[c] = big_endian ? uint16_t((uint16_t(src[0]) << 8) | src[1])
                               : uint16_t(src[0] | (uint16_t(src[1]) << 8));
       }
-      host.convertTo(*gray, CV_8U, 1.0 / 256.0);
+      // The top mono16_bits bits to 8 bits (saturating: a right-aligned 12-bit sensor never exceeds 4095).
+      host.convertTo(*gray, CV_8U, 1.0 / double(1 << (mono16_bits - 8)));
       return checkedGray(msg, gray, why);
     }
     const cv_bridge::CvImageConstPtr shared = cv_bridge::toCvShare(msg);  // no copy: the Mat views msg->data

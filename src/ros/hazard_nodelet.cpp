@@ -57,6 +57,11 @@ class HazardNodelet : public nodelet::Nodelet {
     status_pub_ = nh.advertise<HazardStatus>("hazard/status", 10);
     try {
       config_ = loadHazardConfigFromParams(pnh);
+      // A misspelt section or parameter would be silently ignored: an error like an unknown key.
+      std::vector<std::string> known = hazardNodeletParamNames();
+      known.insert(known.end(), hazardConfigSections().begin(), hazardConfigSections().end());
+      const std::vector<std::string> unknown = unknownPrivateNames(pnh, known);
+      if (!unknown.empty()) throw terrain::HazardConfigError(unknown);
       mapper_.emplace(config_);
     } catch (const std::exception& e) {
       status_.message = std::string("configuration error: ") + e.what();

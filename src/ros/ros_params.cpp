@@ -3,9 +3,11 @@
 
 #include "planetary_vo/ros_io/ros_params.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iterator>
+#include <set>
 #include <sstream>
 
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -13,6 +15,8 @@
 #include "planetary_vo/vo/config_yaml.h"
 
 namespace planetary_vo::ros_io {
+
+const char* const kFallbackCameraFrame = "camera_optical";
 
 const char* const kVoConfigSections[10] = {"detector", "tracker",           "map",      "keyframe",  "motion",
                                            "pnp",      "bundle_adjustment", "pipeline", "altimeter", "imu"};
@@ -49,6 +53,37 @@ std::string scalarYaml(XmlRpc::XmlRpcValue& v) {
       os << "[]";  // a list: the loader rejects it with the key's name
   }
   return os.str();
+}
+
+/// Every parameter of NodeletParams with its name: the one list both the reader and nodeletParamNames() use.
+template <class V>
+void visitNodeletParams(NodeletParams& p, V&& v) {
+  v("world_frame", p.world_frame);
+  v("camera_frame", p.camera_frame);
+  v("base_frame", p.base_frame);
+  v("publish_tf", p.publish_tf);
+  v("queue_size", p.queue_size);
+  v("max_path_length", p.max_path_length);
+  v("path_publish_period_s", p.path_publish_period_s);
+  v("mono16_significant_bits", p.mono16_significant_bits);
+  v("position_sigma_m", p.position_sigma_m);
+  v("orientation_sigma_rad", p.orientation_sigma_rad);
+  v("lost_sigma_factor", p.lost_sigma_factor);
+  v("max_frame_gap_factor", p.max_frame_gap_factor);
+  v("min_rate_hz", p.min_rate_hz);
+  v("max_rate_hz", p.max_rate_hz);
+  v("velocity_sigma_mps", p.velocity_sigma_mps);
+  v("wait_for_initial_state", p.wait_for_initial_state);
+  v("initial_state_tolerance", p.initial_state_tolerance_s);
+  v("imu_queue_size", p.imu_queue_size);
+  v("altimeter_queue_size", p.altimeter_queue_size);
+}
+
+template <class V>
+void visitHazardNodeletParams(HazardNodeletParams& p, V&& v) {
+  v("publish_period_s", p.publish_period_s);
+  v("cloud_stride", p.cloud_stride);
+  v("events_queue_size", p.events_queue_size);
 }
 
 }  // namespace
@@ -90,9 +125,7 @@ terrain::HazardMapperConfig loadHazardConfigFromParams(const ros::NodeHandle& pr
 
 HazardNodeletParams loadHazardNodeletParams(const ros::NodeHandle& nh) {
   HazardNodeletParams p;
-  nh.param("publish_period_s", p.publish_period_s, p.publish_period_s);
-  nh.param("cloud_stride", p.cloud_stride, p.cloud_stride);
-  nh.param("events_queue_size", p.events_queue_size, p.events_queue_size);
+  visitHazardNodeletParams(p, [&nh](const char* name, auto& value) { nh.param(name, value, value); });
   if (!(p.publish_period_s > 0.0) || !std::isfinite(p.publish_period_s))
     p.publish_period_s = HazardNodeletParams().publish_period_s;
   if (p.cloud_stride < 1) p.cloud_stride = 1;
@@ -127,10 +160,6 @@ std::vector<std::string> validateNodeletParams(NodeletParams* p) {
   check("lost_sigma_factor", &p->lost_sigma_factor, d.lost_sigma_factor, p->lost_sigma_factor >= 1.0, ">= 1");
   check("velocity_sigma_mps", &p->velocity_sigma_mps, d.velocity_sigma_mps, p->velocity_sigma_mps > 0.0,
         "> 0");
-  check("min_exposure_stddev", &p->min_exposure_stddev, d.min_exposure_stddev, p->min_exposure_stddev >= 0.0,
-        ">= 0");
-  check("max_saturated_ratio", &p->max_saturated_ratio, d.max_saturated_ratio,
-        p->max_saturated_ratio > 0.0 && p->max_saturated_ratio <= 1.0, "in (0, 1]");
   check("max_frame_gap_factor", &p->max_frame_gap_factor, d.max_frame_gap_factor,
         p->max_frame_gap_factor > 1.0, "> 1");
   check("min_rate_hz", &p->min_rate_hz, d.min_rate_hz, p->min_rate_hz > 0.0, "> 0");
@@ -146,6 +175,14 @@ std::vector<std::string> validateNodeletParams(NodeletParams* p) {
   check_int("queue_size", &p->queue_size, d.queue_size);
   check_int("imu_queue_size", &p->imu_queue_size, d.imu_queue_size);
   check_int("altimeter_queue_size", &p->altimeter_queue_size, d.altimeter_queue_size);
+  check("path_publish_period_s", &p->path_publish_period_s, d.path_publish_period_s,
+        p->path_publish_period_s > 0.0, "> 0");
+  if (p->mono16_significant_bits < 8 || p->mono16_significant_bits > 16) {
+    problems.push_back("~mono16_significant_bits = " + std::to_string(p->mono16_significant_bits) +
+                       " is invalid (8..16): the default " + std::to_string(d.mono16_significant_bits) +
+                       " is used");
+    p->mono16_significant_bits = d.mono16_significant_bits;
+  }
   if (p->max_path_length < 0) {
     problems.push_back("~max_path_length = " + std::to_string(p->max_path_length) +
                        " is invalid (>= 0): the default " + std::to_string(d.max_path_length) + " is used");
@@ -156,28 +193,42 @@ std::vector<std::string> validateNodeletParams(NodeletParams* p) {
 
 NodeletParams loadNodeletParams(const ros::NodeHandle& nh, std::vector<std::string>* problems) {
   NodeletParams p;
-  nh.param("world_frame", p.world_frame, p.world_frame);
-  nh.param("camera_frame", p.camera_frame, p.camera_frame);
-  nh.param("base_frame", p.base_frame, p.base_frame);
-  nh.param("publish_tf", p.publish_tf, p.publish_tf);
-  nh.param("queue_size", p.queue_size, p.queue_size);
-  nh.param("max_path_length", p.max_path_length, p.max_path_length);
-  nh.param("position_sigma_m", p.position_sigma_m, p.position_sigma_m);
-  nh.param("orientation_sigma_rad", p.orientation_sigma_rad, p.orientation_sigma_rad);
-  nh.param("lost_sigma_factor", p.lost_sigma_factor, p.lost_sigma_factor);
-  nh.param("min_exposure_stddev", p.min_exposure_stddev, p.min_exposure_stddev);
-  nh.param("max_saturated_ratio", p.max_saturated_ratio, p.max_saturated_ratio);
-  nh.param("max_frame_gap_factor", p.max_frame_gap_factor, p.max_frame_gap_factor);
-  nh.param("min_rate_hz", p.min_rate_hz, p.min_rate_hz);
-  nh.param("max_rate_hz", p.max_rate_hz, p.max_rate_hz);
-  nh.param("velocity_sigma_mps", p.velocity_sigma_mps, p.velocity_sigma_mps);
-  nh.param("wait_for_initial_state", p.wait_for_initial_state, p.wait_for_initial_state);
-  nh.param("initial_state_tolerance", p.initial_state_tolerance_s, p.initial_state_tolerance_s);
-  nh.param("imu_queue_size", p.imu_queue_size, p.imu_queue_size);
-  nh.param("altimeter_queue_size", p.altimeter_queue_size, p.altimeter_queue_size);
+  visitNodeletParams(p, [&nh](const char* name, auto& value) { nh.param(name, value, value); });
   const std::vector<std::string> invalid = validateNodeletParams(&p);
   if (problems) *problems = invalid;
   return p;
+}
+
+std::vector<std::string> nodeletParamNames() {
+  NodeletParams p;
+  std::vector<std::string> names;
+  visitNodeletParams(p, [&names](const char* name, auto&) { names.push_back(name); });
+  return names;
+}
+
+std::vector<std::string> hazardNodeletParamNames() {
+  HazardNodeletParams p;
+  std::vector<std::string> names;
+  visitHazardNodeletParams(p, [&names](const char* name, auto&) { names.push_back(name); });
+  return names;
+}
+
+std::vector<std::string> unknownPrivateNames(const ros::NodeHandle& private_nh,
+                                             const std::vector<std::string>& known) {
+  std::vector<std::string> all, problems;
+  if (!private_nh.getParamNames(all)) return {"the parameter names could not be listed (no master?)"};
+  const std::string prefix = private_nh.getNamespace() + "/";
+  std::set<std::string> reported;
+  for (const std::string& full : all) {
+    if (full.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string name = full.substr(prefix.size(), full.find('/', prefix.size()) - prefix.size());
+    if (name.empty() || std::find(known.begin(), known.end(), name) != known.end()) continue;
+    if (!reported.insert(name).second) continue;
+    const bool section = full.size() > prefix.size() + name.size();
+    problems.push_back(prefix + name + ": not a " + (section ? "section" : "parameter") +
+                       " of this nodelet (misspelt?); it is ignored");
+  }
+  return problems;
 }
 
 }  // namespace planetary_vo::ros_io

@@ -48,18 +48,6 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info) {
   return "";
 }
 
-std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio) {
-  cv::Scalar mean, stddev;
-  cv::meanStdDev(gray, mean, stddev);
-  const double saturated = double(cv::countNonZero(gray >= 255)) / double(gray.total());
-  if (saturated > max_saturated_ratio)
-    return "saturated frame: " + std::to_string(int(100.0 * saturated)) + " % of the pixels at 255";
-  if (stddev[0] < min_stddev)
-    return std::string(mean[0] < 10.0 ? "black" : "blank") + " frame: grey-level mean " +
-           std::to_string(mean[0]) + ", stddev " + std::to_string(stddev[0]) + " (no texture to track)";
-  return "";
-}
-
 std::string frameGapNote(double gap_s, double period_s) {
   // An int of gap / period overflowed (undefined) for a long gap at a short period, e.g. days at 1 kHz.
   const double frames = std::min(9.0e18, std::max(0.0, std::floor(gap_s / period_s + 0.5) - 1.0));

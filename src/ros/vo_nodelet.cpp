@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -64,6 +65,13 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     watchdog_ = nh.createWallTimer(ros::WallDuration(1.0), &VisualOdometryNodelet::watchdogCb, this);
     try {
       config_ = loadVoConfigFromParams(pnh);
+      // A misspelt section (~detecter/...) or parameter (~max_path_lenght) would be silently ignored: an
+      // error like an unknown key inside a section.
+      std::vector<std::string> known = nodeletParamNames();
+      known.insert(known.end(), std::begin(kVoConfigSections), std::end(kVoConfigSections));
+      for (const auto& knob : VoReconfigureConfig::__getParamDescriptions__()) known.push_back(knob->name);
+      const std::vector<std::string> unknown = unknownPrivateNames(pnh, known);
+      if (!unknown.empty()) throw ConfigError(unknown);
     } catch (const ConfigError& e) {
       config_problem_ = std::string("configuration error: ") + e.what();
       NODELET_ERROR_STREAM(config_problem_ << "\nThe nodelet does not subscribe until it is reloaded.");
@@ -145,14 +153,15 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     const std::string child = childFrame(image->header.frame_id);
     cv::Mat gray;
     std::string why = checkCameraInfo(*info);
-    if (why.empty() && !toGray8(image, &gray, &why)) {
+    if (why.empty() && !toGray8(image, &gray, &why, params_.mono16_significant_bits)) {
     } else if (why.empty() && (gray.cols != int(info->width) || gray.rows != int(info->height))) {
       why = "image size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
             " does not match camera_info " + std::to_string(info->width) + "x" + std::to_string(info->height);
     }
     std::string stamp_note;
     bool restart_tracking = false;
-    if (why.empty()) why = checkExposure(gray, params_.min_exposure_stddev, params_.max_saturated_ratio);
+    // The exposure (black, blank, saturated) and frozen-frame checks are the core's (input_check.h), shared
+    // with vo_run: such an image comes back as result.input_rejected with the reason.
     // Last: it may change the stream state (an image that confirms a jump), which only a usable image may do.
     if (why.empty() && last_stamp_) why = checkStamp(image->header.stamp, &stamp_note, &restart_tracking);
     if (!why.empty()) return reject(why, header);
@@ -208,7 +217,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (result.processed && !checkOutputPose(result.T_world_cam, &untrusted)) {
       NODELET_ERROR_STREAM_THROTTLE(5, "pose not published: " << untrusted);
       result.state = TrackingState::kLost;
-      result.message = "pose not published: " + untrusted + (result.message.empty() ? "" : "; " + result.message);
+      result.message =
+          "pose not published: " + untrusted + (result.message.empty() ? "" : "; " + result.message);
       result.processed = false;
     }
     const bool published = result.processed && publishPose(result, header, child);
@@ -372,11 +382,10 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       last_tf_stamp_ = header.stamp;
     }
     publishNavAtImage(result, T_world_cam, header);
-    path_.header = header;
-    path_.poses.push_back(toPoseStamped(T_world_child, header));
-    if (params_.max_path_length > 0 && int(path_.poses.size()) > params_.max_path_length)
-      path_.poses.erase(path_.poses.begin());
-    if (path_pub_.getNumSubscribers() > 0) path_pub_.publish(path_);
+    path_poses_.push_back(toPoseStamped(T_world_child, header));
+    if (params_.max_path_length > 0 && int(path_poses_.size()) > params_.max_path_length)
+      path_poses_.pop_front();
+    publishPath(header, false);
     if (map_pub_.getNumSubscribers() > 0) {
       pipeline_->mapPoints(&map_points_);
       map_pub_.publish(toPointCloud(map_points_, header));
@@ -386,6 +395,19 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     last_pose_time_s_ = result.timestamp_s;
     have_last_pose_ = true;
     return true;
+  }
+
+  /// vo/path: the kept poses, at most every ~path_publish_period_s (wall clock) unless `now`, and only while
+  /// subscribed (the whole path is a large message: 10000 poses are about 1 MB).
+  void publishPath(const std_msgs::Header& header, bool now) {
+    if (path_pub_.getNumSubscribers() == 0) return;
+    const ros::WallTime wall = ros::WallTime::now();
+    if (!now && (wall - last_path_publish_).toSec() < params_.path_publish_period_s) return;
+    last_path_publish_ = wall;
+    nav_msgs::PathPtr path(new nav_msgs::Path);
+    path->header = header;
+    path->poses.assign(path_poses_.begin(), path_poses_.end());
+    path_pub_.publish(path);
   }
 
   /// vo/map_events of a processed frame, as a shared pointer (no copy inside a manager), with the gray image
@@ -485,7 +507,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   }
 
   std::string childFrame(const std::string& image_frame) {
-    child_camera_frame_ = params_.camera_frame.empty() ? image_frame : params_.camera_frame;
+    child_camera_frame_ = !params_.camera_frame.empty() ? params_.camera_frame
+                          : !image_frame.empty()        ? image_frame
+                                                        : std::string(kFallbackCameraFrame);
     return params_.base_frame.empty() ? child_camera_frame_ : params_.base_frame;
   }
 
@@ -698,7 +722,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     last_stamp_.reset();
     suspect_stamp_.reset();
     period_s_ = 0.0;
-    path_.poses.clear();
+    path_poses_.clear();
     counts_ = VoStatus();
     res.success = true;
     res.message =
@@ -859,7 +883,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   Pose last_pose_ = Pose::Identity(), last_child_pose_ = Pose::Identity();
   double last_pose_time_s_ = 0.0;
   bool have_last_pose_ = false;
-  nav_msgs::Path path_;
+  std::deque<geometry_msgs::PoseStamped> path_poses_;  ///< vo/path (~max_path_length)
+  ros::WallTime last_path_publish_;
   std::vector<MapPointView> map_points_;
 
   // Fusion inputs (buffers and conversions only: every estimate is the pipeline's).
@@ -875,7 +900,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   std::string imu_problem_, altimeter_problem_, initial_state_problem_;  ///< since the last status
   std::string reconfigure_problem_;  ///< a refused reconfiguration, until the next status (pending_mutex_)
   std::string callback_problem_;     ///< an exception contained in a callback, until the next status (same)
-  Eigen::Vector3d last_gyro_radps_ = Eigen::Vector3d::Zero();            ///< latest gyro sample given
+  Eigen::Vector3d last_gyro_radps_ = Eigen::Vector3d::Zero();  ///< latest gyro sample given
   bool have_gyro_ = false;
   Eigen::Matrix3d gyro_covariance_ = Eigen::Matrix3d::Identity();
   bool have_gyro_covariance_ = false;

@@ -93,6 +93,9 @@ std::vector<std::string> VoConfig::validationErrors() const {
         "bundle_adjustment.window_keyframes: " + std::to_string(bundle_adjustment.window_keyframes) +
         " exceeds map.window_keyframes (" + std::to_string(map.window_keyframes) +
         "); BA can only adjust keyframes of the local map");
+  if (pipeline.exposure_step_ratio != 0.0 && pipeline.exposure_step_ratio <= 1.0)
+    errors.push_back("pipeline.exposure_step_ratio: " + std::to_string(pipeline.exposure_step_ratio) +
+                     " must be above 1 (a brightness factor), or 0 to switch the compensation off");
   if (altimeter.noise.min_range_m >= altimeter.noise.max_range_m)
     errors.push_back("altimeter.min_range_m: " + std::to_string(altimeter.noise.min_range_m) +
                      " must be below altimeter.max_range_m (" + std::to_string(altimeter.noise.max_range_m) +
@@ -125,6 +128,38 @@ PLANETARY_VO_CONFIG_EQ(AltimeterAidingConfig, altimeterFields)
 PLANETARY_VO_CONFIG_EQ(ImuAidingConfig, imuFields)
 PLANETARY_VO_CONFIG_EQ(VoConfig, forEachField)
 #undef PLANETARY_VO_CONFIG_EQ
+
+namespace {
+/// Finds one key's range while walking the table.
+struct RangeFinder {
+  std::string section, key, current;
+  bool found = false;
+  double lo = 0.0, hi = 0.0;
+  void beginSection(const char* name) { current = name; }
+  template <class T, class L>
+  void operator()(const char* k, const T&, L l, L h) {
+    if (current != section || key != k) return;
+    found = true;
+    lo = static_cast<double>(l);
+    hi = static_cast<double>(h);
+  }
+  void operator()(const char*, const bool&) {}
+  template <class E>
+  void enumeration(const char*, const E&) {}
+};
+}  // namespace
+
+bool configRange(const std::string& section, const std::string& key, double* lo, double* hi) {
+  RangeFinder finder;
+  finder.section = section;
+  finder.key = key;
+  const VoConfig defaults;
+  config_detail::forEachField(defaults, finder);
+  if (!finder.found) return false;
+  *lo = finder.lo;
+  *hi = finder.hi;
+  return true;
+}
 
 const char* toString(MotionModel v) { return config_detail::enumName(v); }
 const char* toString(PlaneNormalPrior v) { return config_detail::enumName(v); }

@@ -1,9 +1,12 @@
 #include "planetary_vo/vo/input_check.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
+
+#include <opencv2/core.hpp>
 
 namespace planetary_vo {
 
@@ -33,6 +36,65 @@ bool FrozenFrameDetector::check(const cv::Mat& gray, double* mean_abs_diff) {
   cols_ = gray.cols;
   rows_ = gray.rows;
   return frozen;
+}
+
+std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio) {
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw std::invalid_argument("checkExposure: expected a non-empty 8-bit single-channel image");
+  // One pass: sum, sum of squares and the count of saturated pixels.
+  uint64_t sum = 0, sum_sq = 0, saturated = 0;
+  for (int r = 0; r < gray.rows; ++r) {
+    const uint8_t* row = gray.ptr<uint8_t>(r);
+    uint32_t row_sum = 0, row_saturated = 0;
+    uint64_t row_sq = 0;
+    for (int c = 0; c < gray.cols; ++c) {
+      const uint32_t v = row[c];
+      row_sum += v;
+      row_sq += v * v;
+      row_saturated += v == 255;
+    }
+    sum += row_sum;
+    sum_sq += row_sq;
+    saturated += row_saturated;
+  }
+  const double n = static_cast<double>(gray.total());
+  const double mean = static_cast<double>(sum) / n;
+  const double stddev = std::sqrt(std::max(0.0, static_cast<double>(sum_sq) / n - mean * mean));
+  const double saturated_ratio = static_cast<double>(saturated) / n;
+  if (saturated_ratio > max_saturated_ratio)
+    return "saturated frame: " + std::to_string(int(100.0 * saturated_ratio)) + " % of the pixels at 255";
+  if (stddev < min_stddev)
+    return std::string(mean < 10.0 ? "black" : "blank") + " frame: grey-level mean " + std::to_string(mean) +
+           ", stddev " + std::to_string(stddev) + " (no texture to track)";
+  return "";
+}
+
+const cv::Mat& ExposureCompensator::apply(const cv::Mat& gray, cv::Mat* buffer) {
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw std::invalid_argument(
+        "ExposureCompensator::apply: expected a non-empty 8-bit single-channel image");
+  if (!(step_ratio_ > 1.0)) {
+    gain_ = 1.0;
+    return gray;
+  }
+  uint64_t sum = 0, count = 0;
+  for (int r = 0; r < gray.rows; r += kStepPx) {
+    const uint8_t* row = gray.ptr<uint8_t>(r);
+    for (int c = 0; c < gray.cols; c += kStepPx, ++count) sum += row[c];
+  }
+  const double mean = std::max(1.0, static_cast<double>(sum) / static_cast<double>(count));
+  if (previous_mean_ > 0.0) {
+    const double ratio = previous_mean_ / mean;
+    if (ratio >= step_ratio_ || 1.0 / ratio >= step_ratio_) {
+      gain_ = std::min(64.0, std::max(1.0 / 64.0, gain_ * ratio));
+      // Back where it started (the exposure returned): pass the images through untouched again.
+      if (std::abs(gain_ - 1.0) < 0.5 * (step_ratio_ - 1.0)) gain_ = 1.0;
+    }
+  }
+  previous_mean_ = mean;
+  if (gain_ == 1.0) return gray;
+  gray.convertTo(*buffer, CV_8U, gain_);
+  return *buffer;
 }
 
 }  // namespace planetary_vo

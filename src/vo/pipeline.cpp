@@ -103,7 +103,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       mapper_(config.map),
       altimeter_(config.altimeter),
       inertial_(config.imu),
-      frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff) {
+      frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff),
+      exposure_compensator_(config.pipeline.exposure_step_ratio) {
   config_.validate();
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("Pipeline: invalid camera: " + why);
@@ -123,6 +124,7 @@ void Pipeline::reset() {
   }
   tracker_.reset();
   frozen_detector_.reset();
+  exposure_compensator_.reset();
   map_.clear();
   frame_index_ = -1;
   stage_ = PipelineStage::kInitialising;
@@ -157,6 +159,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
 void Pipeline::restartTracking() {
   tracker_.reset();
   frozen_detector_.reset();
+  exposure_compensator_.reset();
   // Continue from the current pose as after a loss, so the trajectory does not jump.
   if (stage_ != PipelineStage::kInitialising) stage_ = PipelineStage::kRecovering;
   reference_.valid = false;
@@ -240,8 +243,7 @@ void Pipeline::addImu(const ImuSample& sample) {
 }
 
 void Pipeline::setInitialState(const Pose& T_world_cam, const Eigen::Vector3d& v_world_mps) {
-  if (!v_world_mps.allFinite())
-    throw std::invalid_argument("Pipeline::setInitialState: non-finite velocity");
+  if (!v_world_mps.allFinite()) throw std::invalid_argument("Pipeline::setInitialState: non-finite velocity");
   setInitialPose(T_world_cam);
   v_initial_world_mps_ = v_world_mps;
 }
@@ -285,29 +287,22 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   }
   result.processed = true;
   timestamp_s_ = timestamp_s;
+  // A black, blank or saturated image has nothing to track: refused like a frozen frame (below), and not
+  // given to the frozen-frame check, whose previous image stays the last usable one.
+  const std::string exposure_problem =
+      checkExposure(gray, config_.pipeline.min_exposure_stddev, config_.pipeline.max_saturated_ratio);
+  if (!exposure_problem.empty()) return refuseInput(exposure_problem + ", not tracked", start, &result);
   // A frozen frame (stuck frame buffer) is not given to the tracker: tracked, it would give a confident
   // zero-motion pose and teach the motion model that the camera stood still. The tracker keeps the last
   // fresh image, so tracking continues from it when fresh images return; the output coasts meanwhile.
   double mean_abs_diff = 0.0;
   if (frozen_detector_.check(gray, &mean_abs_diff)) {
-    result.input_rejected = true;
-    result.state =
-        stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
     std::ostringstream why;
     why.precision(3);
     why << "frozen frame: the image repeats the previous one (mean absolute difference " << mean_abs_diff
         << " < pipeline.frozen_frame_max_mean_abs_diff " << config_.pipeline.frozen_frame_max_mean_abs_diff
         << " gray levels), not tracked";
-    holdPose(&result, why.str());
-    fillInertialOutput(&result);
-    T_world_cam_ = result.T_world_cam;
-    state_ = result.state;
-    result.metric_scale = metric_scale_;
-    result.scale_source = scale_source_;
-    result.num_map_points = static_cast<int>(map_.numPoints());
-    result.num_keyframes = static_cast<int>(map_.numKeyframes());
-    result.times.total_ms = msSince(start);
-    return result;
+    return refuseInput(why.str(), start, &result);
   }
   // The handed-over state belongs to the first image.
   if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_) {
@@ -316,13 +311,22 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
     sigma << Eigen::Vector3d::Constant(config_.imu.initial_position_sigma_m),
         Eigen::Vector3d::Constant(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0),
         Eigen::Vector3d::Constant(config_.imu.initial_velocity_sigma_mps);
-    carried_covariance_ = std::make_pair(*carried_inertial_, Eigen::Matrix<double, 9, 9>(
-                                                                 sigma.cwiseAbs2().asDiagonal()));
+    carried_covariance_ =
+        std::make_pair(*carried_inertial_, Eigen::Matrix<double, 9, 9>(sigma.cwiseAbs2().asDiagonal()));
   }
 
   // The adjustment submitted at the last keyframe runs while LK tracks this image (LK touches only the
   // tracker), and is applied before the pose is estimated against the map.
-  trackFeatures(gray, &result);
+  // A sudden exposure step is scaled back for tracking (the same image otherwise).
+  const double gain_before = exposure_compensator_.gain();
+  const cv::Mat& tracked = exposure_compensator_.apply(gray, &compensated_);
+  if (exposure_compensator_.gain() != gain_before) {
+    std::ostringstream what;
+    what.precision(3);
+    what << "exposure step: images scaled by " << exposure_compensator_.gain() << " for tracking";
+    result.message = what.str();
+  }
+  trackFeatures(tracked, &result);
   applyAsyncBundleAdjustment(&result);
   if (config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation)
     processUnitStep(&result);
@@ -336,7 +340,8 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.metric_scale = metric_scale_;
   result.scale_source = scale_source_;
   if (result.has_velocity)
-    last_nav_state_ = inertial_.bodyState(timestamp_s, result.T_world_cam, result.v_world_mps, result.imu_bias);
+    last_nav_state_ =
+        inertial_.bodyState(timestamp_s, result.T_world_cam, result.v_world_mps, result.imu_bias);
   else
     last_nav_state_.reset();
   result.num_map_points = static_cast<int>(map_.numPoints());
@@ -344,6 +349,22 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.map_events = map_.takeEvents();
   result.times.total_ms = msSince(start);
   return result;
+}
+
+FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point start, FrameResult* result) {
+  result->input_rejected = true;
+  result->state =
+      stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
+  holdPose(result, why);
+  fillInertialOutput(result);
+  T_world_cam_ = result->T_world_cam;
+  state_ = result->state;
+  result->metric_scale = metric_scale_;
+  result->scale_source = scale_source_;
+  result->num_map_points = static_cast<int>(map_.numPoints());
+  result->num_keyframes = static_cast<int>(map_.numKeyframes());
+  result->times.total_ms = msSince(start);
+  return *result;
 }
 
 void Pipeline::trackFeatures(const cv::Mat& gray, FrameResult* result) {
@@ -832,7 +853,8 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
     // A fault of the optimiser thread stays there: its result is discarded, the map keeps the poses it had
     // (the next keyframe submits a new adjustment), and the frame says so.
     result->message += std::string(result->message.empty() ? "" : "; ") +
-                       "bundle adjustment failed in the optimiser thread (" + e.what() + "): result discarded";
+                       "bundle adjustment failed in the optimiser thread (" + e.what() +
+                       "): result discarded";
     return;
   }
   if (!finished || !finished->second.converged) return;
@@ -859,7 +881,8 @@ std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> Pipeline::newest
   for (auto it = kfs.rbegin(); it != kfs.rend(); ++it)
     if (it->has_inertial_state && it->has_covariance)
       return std::make_pair(
-          inertial_.bodyState(it->timestamp_s, it->T_world_cam, it->v_world_mps, it->imu_bias), it->covariance);
+          inertial_.bodyState(it->timestamp_s, it->T_world_cam, it->v_world_mps, it->imu_bias),
+          it->covariance);
   return carried_covariance_;
 }
 
@@ -879,7 +902,8 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
     }
     --first;
   }
-  if (kfs.size() - first < kMinKeyframes || kfs.back().timestamp_s - kfs[first].timestamp_s < kMinSpanS) return;
+  if (kfs.size() - first < kMinKeyframes || kfs.back().timestamp_s - kfs[first].timestamp_s < kMinSpanS)
+    return;
   InertialAlignmentInput in;
   for (size_t k = first; k < kfs.size(); ++k) {
     in.timestamps_s.push_back(kfs[k].timestamp_s);
@@ -900,11 +924,10 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
   // The map frame turned gravity-aligned (unless it was: handed-over pose) and metric, about the first camera
   // (the initial pose); yaw stays the map's.
   const Eigen::Vector3d centre = T_world_cam_initial_.translation();
-  const Eigen::Matrix3d R =
-      world_aligned
-          ? Eigen::Matrix3d::Identity()
-          : Eigen::Quaterniond::FromTwoVectors(a.gravity_map.normalized(), -Eigen::Vector3d::UnitZ())
-                .toRotationMatrix();
+  const Eigen::Matrix3d R = world_aligned ? Eigen::Matrix3d::Identity()
+                                          : Eigen::Quaterniond::FromTwoVectors(a.gravity_map.normalized(),
+                                                                               -Eigen::Vector3d::UnitZ())
+                                                .toRotationMatrix();
   map_.transformAbout(centre, R, a.scale);
   auto moved = [&](Pose T) {
     T.translation() = centre + a.scale * R * (T.translation() - centre);
@@ -921,7 +944,8 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
     kf->has_inertial_state = true;
     kf->v_world_mps = R * a.velocities_map_mps[k - first];
     kf->imu_bias = bias;
-    if (k > first) kf->imu_from_previous = inertial_.preintegrate(kfs[k - 1].timestamp_s, kf->timestamp_s, bias);
+    if (k > first)
+      kf->imu_from_previous = inertial_.preintegrate(kfs[k - 1].timestamp_s, kf->timestamp_s, bias);
   }
   if (!metric_scale_) scale_source_ = ScaleSource::kImu;
   metric_scale_ = true;
@@ -950,7 +974,8 @@ std::optional<NavState> Pipeline::newestInertialState() const {
 void Pipeline::attachInertialState(uint64_t keyframe_id, FrameResult* result) {
   if (!inertialActive() || !metric_scale_) return;
   const auto& kfs = map_.keyframes();
-  const auto at = std::find_if(kfs.begin(), kfs.end(), [&](const Keyframe& k) { return k.id == keyframe_id; });
+  const auto at =
+      std::find_if(kfs.begin(), kfs.end(), [&](const Keyframe& k) { return k.id == keyframe_id; });
   if (at == kfs.end()) return;
   const Keyframe* previous = at == kfs.begin() ? nullptr : &*(at - 1);
   Keyframe* kf = map_.keyframe(keyframe_id);
@@ -967,15 +992,16 @@ void Pipeline::attachInertialState(uint64_t keyframe_id, FrameResult* result) {
   }
   const std::optional<NavState> state = inertial_.propagate(*from, kf->timestamp_s);
   if (!state) {
-    result->message += "; IMU not used at this keyframe: " +
-                       inertial_.coverageProblem(from->timestamp_s, kf->timestamp_s);
+    result->message +=
+        "; IMU not used at this keyframe: " + inertial_.coverageProblem(from->timestamp_s, kf->timestamp_s);
     return;
   }
   kf->has_inertial_state = true;
   kf->v_world_mps = state->v_world_mps;
   kf->imu_bias = from->bias();
   if (previous != nullptr && previous->has_inertial_state)
-    kf->imu_from_previous = inertial_.preintegrate(previous->timestamp_s, kf->timestamp_s, previous->imu_bias);
+    kf->imu_from_previous =
+        inertial_.preintegrate(previous->timestamp_s, kf->timestamp_s, previous->imu_bias);
 }
 
 double Pipeline::inertialMapScale(const Initialization& init, std::string* why) const {
@@ -1038,15 +1064,16 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
     return;
   }
   // Only states that an IMU factor ties (across a gap a keyframe may have a state but no factor).
-  inertial.states.erase(
-      std::remove_if(inertial.states.begin(), inertial.states.end(),
-                     [&](const BaInertialState& st) {
-                       return std::none_of(inertial.constraints.begin(), inertial.constraints.end(),
-                                           [&](const BaImuConstraint& c) {
-                                             return c.keyframe_i == st.keyframe_id || c.keyframe_j == st.keyframe_id;
-                                           });
-                     }),
-      inertial.states.end());
+  inertial.states.erase(std::remove_if(inertial.states.begin(), inertial.states.end(),
+                                       [&](const BaInertialState& st) {
+                                         return std::none_of(inertial.constraints.begin(),
+                                                             inertial.constraints.end(),
+                                                             [&](const BaImuConstraint& c) {
+                                                               return c.keyframe_i == st.keyframe_id ||
+                                                                      c.keyframe_j == st.keyframe_id;
+                                                             });
+                                       }),
+                        inertial.states.end());
   // The covariance of the window's states, the oldest (held) one released under the covariance it had: its
   // own from an earlier window, else the newest known one moved on to it by the IMU's noise.
   const Keyframe* anchor = map_.keyframe(inertial.states.front().keyframe_id);
@@ -1058,16 +1085,15 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
         inertial_.bodyState(anchor->timestamp_s, anchor->T_world_cam, anchor->v_world_mps, anchor->imu_bias);
     if (known->first.timestamp_s <= anchor_state.timestamp_s) {
       inertial.compute_covariance = true;
-      inertial.anchor_covariance =
-          propagateCovariance(known->second, known->first, anchor_state, config_.imu, inertial_.gravityWorld());
+      inertial.anchor_covariance = propagateCovariance(known->second, known->first, anchor_state, config_.imu,
+                                                       inertial_.gravityWorld());
     }
   }
   // The oldest state's velocity is held with its fixed pose (both what earlier windows estimated, or what was
   // handed over); its biases get the data sheet's turn-on sigma about the estimate so far.
-  inertial.states.front().velocity_fixed =
-      std::any_of(problem->keyframes.begin(), problem->keyframes.end(), [&](const BaKeyframe& k) {
-        return k.id == inertial.states.front().keyframe_id && k.fixed;
-      });
+  inertial.states.front().velocity_fixed = std::any_of(
+      problem->keyframes.begin(), problem->keyframes.end(),
+      [&](const BaKeyframe& k) { return k.id == inertial.states.front().keyframe_id && k.fixed; });
   inertial.bias_priors.push_back({inertial.states.front().keyframe_id, inertial.states.front().bias,
                                   config_.imu.gyro_turn_on_bias_radps, config_.imu.accel_turn_on_bias_mps2});
 }

@@ -9,16 +9,18 @@
 /// part 1).
 ///
 /// Cases (~case): encoding, info_missing, size_mismatch, bad_intrinsics, black, saturated, stamps, dropped,
-/// resolution; issue 12: distortion (plumb_bob with a D of 3, 6, 100), mono16_bigendian (converted, tracked),
-/// absurd_intrinsics (cx = 1e6, 1e9, fx = 1e9: rejected, then good camera_info again), frozen (the last image
-/// repeated with fresh stamps: BAD_INPUT "frozen frame"), stamp_jump (one image stamped 5 s, then one a year,
-/// ahead: each refused as suspect, the next good frame tracked; then the stream's clock really jumps 3 s:
-/// one image refused, the next confirms and is processed, tracking goes on), stamp_restart (the clock goes
-/// back 2 s for good: one image refused, the next restarts the trajectory by itself, tracking again); and
-/// samples: the fused configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with the dataset's
-/// IMU and altimeter streams published before each image (lock step: the nodelet has queued them before the
-/// image is sent), the initial state handed over, and bad samples in place of part 2's image: non-finite,
-/// REP-145 "no angular velocity", zero, duplicate and out-of-order stamps, NaN, negative,
+/// resolution; issue 12: no_frame_id (images without a frame_id: the fallback camera frame, never an empty
+/// child frame), exposure_drop (every image from part 2 on 0.3x as bright: compensated, tracked), distortion
+/// (plumb_bob with a D of 3, 6, 100), mono16_bigendian (converted, tracked), absurd_intrinsics (cx = 1e6,
+/// 1e9, fx = 1e9: rejected, then good camera_info again), frozen (the last image repeated with fresh stamps:
+/// BAD_INPUT "frozen frame"), stamp_jump (one image stamped 5 s, then one a year, ahead: each refused as
+/// suspect, the next good frame tracked; then the stream's clock really jumps 3 s: one image refused, the
+/// next confirms and is processed, tracking goes on), stamp_restart (the clock goes back 2 s for good: one
+/// image refused, the next restarts the trajectory by itself, tracking again); and samples: the fused
+/// configuration (vo_bad_input.test config:=config/lunar_fused.yaml) with the dataset's IMU and altimeter
+/// streams published before each image (lock step: the nodelet has queued them before the image is sent), the
+/// initial state handed over, and bad samples in place of part 2's image: non-finite, REP-145 "no angular
+/// velocity", zero, duplicate and out-of-order stamps, NaN, negative,
 /// +-Inf ranges; and a 0.2 s gap in the IMU stream before the last 4 images. Checks besides: every bad
 /// sample counted (exactly), the status says so, every good sample used, nav/odometry at the IMU rate after
 /// the bad samples, the gap reported, metric nav/odometry after it.
@@ -68,6 +70,7 @@ class VoBadInputTest : public ::testing::Test {
     info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera/camera_info", 10);
     subs_.push_back(nh_.subscribe("vo/status", 1000, &VoBadInputTest::onStatus, this));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoBadInputTest::onPose, this));
+    subs_.push_back(nh_.subscribe("vo/odometry", 1000, &VoBadInputTest::onOdometry, this));
     fused_ = case_ == "samples";
     if (fused_) {
       imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 10000);
@@ -105,6 +108,11 @@ class VoBadInputTest : public ::testing::Test {
     for (ros::Subscriber& s : subs_) s.shutdown();
   }
 
+  /// Every vo/odometry names its child frame (tf refuses an empty one).
+  void onOdometry(const nav_msgs::OdometryConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (m->child_frame_id.empty()) ++empty_child_frames_;
+  }
   void onNav(const nav_msgs::OdometryConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     nav_.push_back(*m);
@@ -170,8 +178,9 @@ class VoBadInputTest : public ::testing::Test {
                                c.distortionModel(), c.distortion());
     return toCameraInfo(scaled, makeHeader(t, "camera_optical"));
   }
-  static sensor_msgs::ImagePtr imageMsg(const cv::Mat& m, const ros::Time& t, const std::string& encoding) {
-    return cv_bridge::CvImage(makeHeader(t, "camera_optical"), encoding, m).toImageMsg();
+  static sensor_msgs::ImagePtr imageMsg(const cv::Mat& m, const ros::Time& t, const std::string& encoding,
+                                        const std::string& frame_id = "camera_optical") {
+    return cv_bridge::CvImage(makeHeader(t, frame_id), encoding, m).toImageMsg();
   }
 
   /// Publishes one frame and waits for a new status with its stamp; returns that status.
@@ -198,6 +207,7 @@ class VoBadInputTest : public ::testing::Test {
   VoStatus sendGood(size_t i, double scale = 1.0) {
     if (fused_) publishSamplesUpTo(dataset_->timestamp(i));
     cv::Mat m = image(i);
+    if (gain_ != 1.0) m.convertTo(m, CV_8U, gain_);
     if (scale != 1.0) cv::resize(m, m, cv::Size(), scale, scale, cv::INTER_AREA);
     return send(imageMsg(m, stamp(i), "mono8"), info(stamp(i), scale));
   }
@@ -242,6 +252,8 @@ class VoBadInputTest : public ::testing::Test {
   std::mutex mutex_;
   std::vector<VoStatus> statuses_;
   std::vector<geometry_msgs::PoseStamped> poses_;
+  size_t empty_child_frames_ = 0;
+  double gain_ = 1.0;  ///< brightness of the good images (case exposure_drop: 0.3 from part 2 on)
   ros::Duration stamp_offset_{0.0};  ///< added to every stamp (case stamp_jump: the stream's timeline moved)
   // Case "samples".
   bool fused_ = false;
@@ -325,6 +337,21 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
       expectBad(
           send(imageMsg(cv::Mat::zeros(image(0).size(), CV_8UC1), stamp(next), "mono8"), info(stamp(next))),
           "black");
+  } else if (case_ == "no_frame_id") {
+    // Issue 12: an image without a frame_id (and no ~camera_frame) gave tf and vo/odometry an empty child
+    // frame, which tf refuses. The fallback frame is used and the frames are tracked.
+    for (const size_t end = next + 5; next < end; ++next) {
+      const VoStatus s = send(imageMsg(image(next), stamp(next), "mono8", ""), info(stamp(next)));
+      EXPECT_EQ(s.state, VoStatus::STATE_TRACKING) << s.message;
+    }
+  } else if (case_ == "exposure_drop") {
+    // Issue 12: a sudden 0.3x exposure drop cost 12 LOST frames. From here on every image is 0.3x as bright
+    // (part 3 too); the core compensates the step: no frame is refused or lost.
+    gain_ = 0.3;
+    for (const size_t end = next + 5; next < end; ++next) {
+      const VoStatus s = sendGood(next);
+      EXPECT_EQ(s.state, VoStatus::STATE_TRACKING) << s.message;
+    }
   } else if (case_ == "saturated") {
     for (const size_t end = next + 3; next < end; ++next)
       expectBad(send(imageMsg(cv::Mat(image(0).size(), CV_8UC1, cv::Scalar(255)), stamp(next), "mono8"),
@@ -494,6 +521,7 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
   }
 
   std::lock_guard<std::mutex> lock(mutex_);
+  EXPECT_EQ(empty_child_frames_, 0u) << "vo/odometry with an empty child_frame_id";
   for (size_t k = 0; k < poses_.size(); ++k) {
     const Pose T = fromPoseMsg(poses_[k].pose);
     ASSERT_TRUE(T.matrix().allFinite()) << "non-finite pose " << k;

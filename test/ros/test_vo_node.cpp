@@ -32,6 +32,7 @@
 
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
@@ -44,6 +45,7 @@
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/ros_io/conversions.h"
 #include "planetary_vo/ros_io/map_event_conversions.h"
+#include "planetary_vo/ros_io/ros_params.h"
 #include "test_ros_helpers.h"
 
 namespace planetary_vo::ros_io {
@@ -69,6 +71,7 @@ class VoEndToEndTest : public ::testing::Test {
     subs_.push_back(nh_.subscribe("vo/map_points", 10, &VoEndToEndTest::onMap, this));
     subs_.push_back(nh_.subscribe("vo/map_events", 1000, &VoEndToEndTest::onMapEvents, this));
     subs_.push_back(nh_.subscribe("ground_truth/pose", 1000, &VoEndToEndTest::onGroundTruth, this));
+    subs_.push_back(nh_.subscribe("vo/path", 1000, &VoEndToEndTest::onPath, this));
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
   }
 
@@ -104,6 +107,12 @@ class VoEndToEndTest : public ::testing::Test {
       ++map_events_.bad;
       ADD_FAILURE() << e.what();
     }
+  }
+  void onPath(const nav_msgs::PathConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    path_sizes_.push_back(m->poses.size());
+    path_wall_s_.push_back(ros::WallTime::now().toSec());
+    last_path_ = *m;
   }
   void onGroundTruth(const geometry_msgs::PoseStampedConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -184,6 +193,9 @@ class VoEndToEndTest : public ::testing::Test {
   tf2_ros::Buffer tf_buffer_{ros::Duration(600.0)};
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::mutex mutex_;
+  std::vector<size_t> path_sizes_;
+  std::vector<double> path_wall_s_;
+  nav_msgs::Path last_path_;
   std::vector<geometry_msgs::PoseStamped> poses_, ground_truth_;
   std::vector<VoStatus> statuses_;
   size_t max_map_points_ = 0, map_fields_ = 0;
@@ -262,6 +274,26 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
       tf = tf_buffer_.lookupTransform(world_frame_, camera_frame_, last.header.stamp, ros::Duration(5.0)));
   EXPECT_NEAR(tf.transform.translation.x, last.pose.position.x, 1e-9);
   EXPECT_NEAR(tf.transform.translation.z, last.pose.position.z, 1e-9);
+
+  // vo/path (issue 12: it grew without bound and went out with every frame): at most ~max_path_length
+  // poses, at most one message per ~path_publish_period_s, and its poses are the last vo/pose messages.
+  NodeletParams defaults;
+  const int max_path = ros::param::param(node_ + "/max_path_length", defaults.max_path_length);
+  const double path_period_s =
+      ros::param::param(node_ + "/path_publish_period_s", defaults.path_publish_period_s);
+  ASSERT_GE(path_sizes_.size(), 1u) << "no vo/path";
+  for (size_t n : path_sizes_) EXPECT_LE(int(n), max_path);
+  const double path_span_s = path_wall_s_.back() - path_wall_s_.front();
+  EXPECT_LE(double(path_sizes_.size()), path_span_s / path_period_s + 2.0)
+      << path_sizes_.size() << " vo/path messages in " << path_span_s << " s";
+  ASSERT_FALSE(last_path_.poses.empty());
+  const auto in_poses = std::find_if(poses_.begin(), poses_.end(), [&](const geometry_msgs::PoseStamped& p) {
+    return p.header.stamp == last_path_.poses.back().header.stamp;
+  });
+  EXPECT_NE(in_poses, poses_.end()) << "the path's last pose is not a vo/pose";
+  std::printf("vo/path: %zu messages in %.1f s (period %.2f s), at most %zu poses (limit %d)\n",
+              path_sizes_.size(), path_span_s, path_period_s,
+              *std::max_element(path_sizes_.begin(), path_sizes_.end()), max_path);
 
   if (!reconfigure_) return;
   // The knob changes went into the running pipeline: no re-initialisation (every status after the first

@@ -1,8 +1,10 @@
 /// gtest node of vo_params.test: config YAML files loaded into the parameter server with rosparam and read
 /// back by ros_params (loadVoConfigFromParams) give the same VoConfig as the core YAML loader; a changed
-/// parameter changes the struct; a misspelt key is an error that names it.
+/// parameter changes the struct; a misspelt key, section or nodelet parameter is an error that names it.
 
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -43,6 +45,28 @@ TEST(VoParams, MisspeltKeyIsNamed) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("num_featurs"), std::string::npos) << e.what();
   }
+}
+
+TEST(VoParams, MisspeltSectionsAndParametersAreNamed) {
+  // Issue 12: a misspelt section under ~ (~detecter/num_features) was silently ignored: the nodelet ran on
+  // the default it was meant to change. Every name under the private namespace must be a parameter or a
+  // section the nodelet reads.
+  std::vector<std::string> known = nodeletParamNames();
+  known.insert(known.end(), std::begin(kVoConfigSections), std::end(kVoConfigSections));
+  EXPECT_TRUE(unknownPrivateNames(ros::NodeHandle("~default"), known).empty())
+      << "config/default.yaml has only sections";
+  EXPECT_TRUE(unknownPrivateNames(ros::NodeHandle("~nodelet_params"), known).empty());
+  const std::vector<std::string> unknown = unknownPrivateNames(ros::NodeHandle("~typos"), known);
+  ASSERT_EQ(unknown.size(), 2u);
+  std::string all;
+  for (const std::string& u : unknown) all += u + "\n";
+  EXPECT_NE(all.find("typos/detecter: not a section"), std::string::npos) << all;
+  EXPECT_NE(all.find("typos/max_path_lenght: not a parameter"), std::string::npos) << all;
+  // The hazard nodelet's names: its config/hazard.yaml sections and parameters are all known.
+  std::vector<std::string> hazard_known = hazardNodeletParamNames();
+  hazard_known.insert(hazard_known.end(), hazardConfigSections().begin(), hazardConfigSections().end());
+  EXPECT_TRUE(unknownPrivateNames(ros::NodeHandle("~hazard"), hazard_known).empty());
+  EXPECT_EQ(unknownPrivateNames(ros::NodeHandle("~hazard_typo"), hazard_known).size(), 1u);
 }
 
 }  // namespace

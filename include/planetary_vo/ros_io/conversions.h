@@ -145,6 +145,9 @@ bool isSupportedEncoding(const std::string& encoding);
 /// @param why set to the reason when the image cannot be converted (unsupported encoding, empty image, step
 ///        or data size inconsistent with width x height).
 /// @return false, with *why set, instead of throwing.
-bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why);
+/// @param mono16_bits significant bits of a mono16 pixel (8..16): 16 for left-aligned data (the full range,
+///        the convention of most drivers), 10 or 12 for a sensor that writes its samples right-aligned
+///        (0..1023, 0..4095); the top `mono16_bits` are mapped to 0..255 (brighter values saturate).
+bool toGray8(const sensor_msgs::ImageConstPtr& msg, cv::Mat* gray, std::string* why, int mono16_bits = 16);
 
 }  // namespace planetary_vo::ros_io

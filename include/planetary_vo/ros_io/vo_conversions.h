@@ -31,10 +31,6 @@ namespace planetary_vo::ros_io {
 /// image). Returns "" when usable, else what is wrong.
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info);
 
-/// @brief Checks that an 8-bit image is neither blank (grey-level stddev below min_stddev: black, or any
-/// uniform frame) nor saturated (more than max_saturated_ratio of the pixels at 255). Returns "" when usable.
-std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
-
 /// The vo/status note for a gap of gap_s between two images at the usual period_s: "about N frames dropped
 /// (gap ... s, period ... s)", N = round(gap / period) - 1 computed without overflow (64-bit, clamped), for
 /// any gap and period > 0.

@@ -8,8 +8,8 @@
 /// TrackerConfig&)`); no stage sees YAML, rosparam or the whole VoConfig.
 ///
 /// YAML layout: one map per section, named as the VoConfig members (`detector:`, `tracker:`, `motion:`,
-/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`, `imu:`), each holding the keys named
-/// as the struct members. Loading lives in config_yaml.h.
+/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`, `imu:`), each holding the
+/// keys named as the struct members. Loading lives in config_yaml.h.
 
 #include <stdexcept>
 #include <string>
@@ -163,6 +163,15 @@ struct PipelineConfig {
   /// this is a frozen frame (a stuck frame buffer): refused by the input check (input_check.h), not tracked;
   /// 0 = off.
   double frozen_frame_max_mean_abs_diff = 0.5;
+  /// Exposure check (input_check.h): an image whose gray-level standard deviation is below this is black or
+  /// blank (nothing to track) and is refused.
+  double min_exposure_stddev = 2.0;
+  /// Exposure check: an image with more than this fraction of its pixels at 255 is saturated and refused.
+  double max_saturated_ratio = 0.9;
+  /// Exposure compensation (input_check.h): when the mean brightness of an image differs from the previous
+  /// one by at least this factor (either way), the step is taken as a change of exposure or gain and the
+  /// images are scaled back to the brightness before the step for tracking; 0 = off.
+  double exposure_step_ratio = 1.2;
 };
 
 /// Laser-altimeter aiding (issue 10): the metric scale of the map from the altimeter's slant range against
@@ -246,6 +255,11 @@ bool operator==(const VoConfig& a, const VoConfig& b);
 inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b); }
 
 /// YAML spelling of the enum values ("fundamental", "empty_cells", ...).
+/// @brief The valid range [lo, hi] of a numeric key ("detector", "num_features"), from the one key table
+/// (for front ends that clamp values themselves, e.g. dynamic_reconfigure). False for an unknown or
+/// non-numeric key.
+bool configRange(const std::string& section, const std::string& key, double* lo, double* hi);
+
 const char* toString(MotionModel v);
 const char* toString(PlaneNormalPrior v);
 const char* toString(KeyframeMode v);

@@ -8,8 +8,19 @@
 /// (pipeline.frozen_frame_max_mean_abs_diff, gray levels) marks the image as frozen. A real camera's noise
 /// alone keeps consecutive frames above a fraction of a gray level, so the default flags only identical or
 /// near-identical frames; 0 switches the check off.
+///
+/// checkExposure: a black, blank or saturated image has nothing to track (pipeline.min_exposure_stddev,
+/// pipeline.max_saturated_ratio).
+///
+/// ExposureCompensator: KLT compares raw intensities, so a sudden exposure or gain step (a 0.3x drop lost
+/// 12 frames on a Lunar descent) breaks every track although the scene did not change. A step of the mean
+/// brightness between consecutive images by at least pipeline.exposure_step_ratio (either way) is taken as
+/// such a change, and the images are scaled back to the brightness before the step for tracking. Slow changes
+/// (the scene, the Sun) stay below the ratio and are left to KLT; without a step the image is passed through
+/// untouched.
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -39,6 +50,38 @@ class FrozenFrameDetector {
   double threshold_;
   int cols_ = 0, rows_ = 0;
   std::vector<uint8_t> previous_, current_;
+};
+
+/// @brief Why `gray` (8UC1) cannot be tracked, or "" when it can: more than max_saturated_ratio of its pixels
+/// at 255 ("saturated frame"), or a gray-level standard deviation below min_stddev ("black frame" when the
+/// mean is below 10, else "blank frame"). Every pixel is counted.
+std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
+
+class ExposureCompensator {
+ public:
+  static constexpr int kStepPx = 4;  ///< the mean brightness is taken on every kStepPx-th pixel
+
+  /// @param step_ratio a brightness step between consecutive images by at least this factor is compensated;
+  /// 0 (or <= 1) switches the compensation off.
+  explicit ExposureCompensator(double step_ratio = 0.0) : step_ratio_(step_ratio) {}
+
+  /// @brief The image to track: `gray` (8UC1) itself while the accumulated gain is 1, else `gray` scaled by
+  /// the gain into *buffer (saturating), which is returned.
+  const cv::Mat& apply(const cv::Mat& gray, cv::Mat* buffer);
+
+  /// The factor the last image was scaled by (1: untouched).
+  double gain() const { return gain_; }
+  void setStepRatio(double step_ratio) { step_ratio_ = step_ratio; }
+  /// Forgets the previous image and sets the gain back to 1 (with the tracks: nothing to compare to).
+  void reset() {
+    gain_ = 1.0;
+    previous_mean_ = 0.0;
+  }
+
+ private:
+  double step_ratio_;
+  double gain_ = 1.0;
+  double previous_mean_ = 0.0;  ///< raw mean brightness of the previous image, 0: none
 };
 
 }  // namespace planetary_vo

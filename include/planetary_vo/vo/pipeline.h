@@ -30,6 +30,7 @@
 /// tracking of the next image, and the results do not depend on timing. mapPoints() reads the map of the
 /// calling thread.
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -162,6 +163,9 @@ class Pipeline {
   };
 
   void trackFeatures(const cv::Mat& gray, FrameResult* result);
+  /// The input check refused the image (`why`): the chain does not see it, the pose coasts (holdPose).
+  FrameResult refuseInput(const std::string& why, std::chrono::steady_clock::time_point start,
+                          FrameResult* result);
   void snapshotCurrent(double timestamp_s, const Pose& T_world_cam, FrameSnapshot* out) const;
   /// Correspondences of `ref` with the current frame by track id into px_ref_ / px_cur_ / match_ids_.
   void matchToCurrent(const FrameSnapshot& ref);
@@ -207,7 +211,8 @@ class Pipeline {
   /// Metres per unit of a new two-view map from the IMU baseline between the reference and the current
   /// image (propagated from newestInertialState()), or NaN with `why`.
   double inertialMapScale(const Initialization& init, std::string* why) const;
-  /// The newest inertial state that has a covariance (a keyframe's, else the carried one) and that covariance.
+  /// The newest inertial state that has a covariance (a keyframe's, else the carried one) and that
+  /// covariance.
   std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> newestCovariance() const;
   /// Adds the window's inertial states, IMU factors and bias prior to `problem`.
   void addInertialFactors(BaProblem* problem) const;
@@ -227,6 +232,8 @@ class Pipeline {
   InertialAiding inertial_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
   FrozenFrameDetector frozen_detector_;
+  ExposureCompensator exposure_compensator_;
+  cv::Mat compensated_;  ///< the scaled image while the exposure compensation is active
   /// setPriorPlaneNormal()'s override of the configured plane-normal prior, kept across reconfigure().
   std::optional<Eigen::Vector3d> prior_plane_normal_override_cam_;
 
@@ -244,9 +251,9 @@ class Pipeline {
   /// Covariance (position, attitude, velocity) of the state handed over or carried between maps, and that
   /// state.
   std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> carried_covariance_;
-  bool metric_scale_ = false;                           // map and trajectory in metres (vision + altimeter)
-  ScaleSource scale_source_ = ScaleSource::kNone;       // what made them metres
-  std::optional<NavState> last_nav_state_;              // inertial state of the last processed frame
+  bool metric_scale_ = false;                      // map and trajectory in metres (vision + altimeter)
+  ScaleSource scale_source_ = ScaleSource::kNone;  // what made them metres
+  std::optional<NavState> last_nav_state_;         // inertial state of the last processed frame
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
   int frames_since_keyframe_ = 0;

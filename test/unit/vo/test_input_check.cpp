@@ -1,11 +1,13 @@
-/// FrozenFrameDetector (input_check.h): identical and near-identical consecutive images are frozen, an image
-/// with a camera's noise or motion is not, 0 switches the check off.
+/// input_check.h: FrozenFrameDetector (identical and near-identical consecutive images are frozen, an image
+/// with a camera's noise or motion is not, 0 switches the check off), checkExposure (black, blank, saturated)
+/// and ExposureCompensator (an exposure step is scaled back, slow changes pass untouched).
 
 #include <cmath>
 
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "planetary_vo/vo/input_check.h"
 #include "vo_test_images.h"
@@ -76,6 +78,64 @@ TEST(FrozenFrameDetector, OffResetAndSizeChange) {
   EXPECT_FALSE(detector.check(image)) << "reset() forgets the previous image";
   EXPECT_FALSE(detector.check(test::texture(cv::Size(160, 120), 3))) << "a new size has no previous image";
   EXPECT_THROW(detector.check(cv::Mat()), std::invalid_argument);
+}
+
+TEST(CheckExposure, BlackBlankAndSaturatedFramesAreNamed) {
+  const cv::Mat texture = test::texture(kSize, 3);
+  EXPECT_EQ(checkExposure(texture, 2.0, 0.9), "");
+  EXPECT_NE(checkExposure(cv::Mat::zeros(kSize, CV_8UC1), 2.0, 0.9).find("black frame"), std::string::npos);
+  EXPECT_NE(checkExposure(cv::Mat(kSize, CV_8UC1, cv::Scalar(255)), 2.0, 0.9).find("saturated frame"),
+            std::string::npos);
+  EXPECT_NE(checkExposure(cv::Mat(kSize, CV_8UC1, cv::Scalar(128)), 2.0, 0.9).find("blank frame"),
+            std::string::npos);
+  // The thresholds are the caller's: a dim but textured frame passes a low one and fails a high one.
+  cv::Mat dim;
+  texture.convertTo(dim, CV_8U, 0.05);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(dim, mean, stddev);
+  EXPECT_EQ(checkExposure(dim, 0.5 * stddev[0], 0.9), "");
+  EXPECT_NE(checkExposure(dim, 2.0 * stddev[0], 0.9), "");
+  // 95 % of the pixels at 255: saturated at 0.9, not at 0.99.
+  cv::Mat bright(kSize, CV_8UC1, cv::Scalar(255));
+  texture(cv::Rect(0, 0, kSize.width / 20, kSize.height))
+      .copyTo(bright(cv::Rect(0, 0, kSize.width / 20, kSize.height)));
+  EXPECT_NE(checkExposure(bright, 2.0, 0.9), "");
+  EXPECT_EQ(checkExposure(bright, 2.0, 0.99), "");
+  EXPECT_THROW(checkExposure(cv::Mat(), 2.0, 0.9), std::invalid_argument);
+}
+
+TEST(ExposureCompensator, AStepIsScaledBackAndSlowChangesPassUntouched) {
+  const cv::Mat image = test::texture(kSize, 3);
+  ExposureCompensator compensator(1.2);
+  cv::Mat buffer;
+  EXPECT_EQ(compensator.apply(image, &buffer).data, image.data) << "no step: the image itself";
+  // A slow change (5 % per frame) is left to the tracker.
+  cv::Mat slightly;
+  image.convertTo(slightly, CV_8U, 0.95);
+  EXPECT_EQ(compensator.apply(slightly, &buffer).data, slightly.data);
+  EXPECT_EQ(compensator.gain(), 1.0);
+  // A 0.3x exposure step: scaled back to the brightness before it, to within the 8-bit rounding.
+  cv::Mat dark;
+  slightly.convertTo(dark, CV_8U, 0.3);
+  const cv::Mat& restored = compensator.apply(dark, &buffer);
+  EXPECT_NEAR(compensator.gain(), 1.0 / 0.3, 0.1);
+  EXPECT_LT(std::abs(cv::mean(restored)[0] - cv::mean(slightly)[0]), 1.0);
+  cv::Mat diff;
+  cv::absdiff(restored, slightly, diff);
+  EXPECT_LT(cv::mean(diff)[0], 2.0) << "the dark image scaled back is the bright one but for quantisation";
+  // The gain stays while the exposure stays low ...
+  compensator.apply(dark, &buffer);
+  EXPECT_NEAR(compensator.gain(), 1.0 / 0.3, 0.1);
+  // ... and goes back to 1 (untouched images) when it returns.
+  EXPECT_EQ(compensator.apply(slightly, &buffer).data, slightly.data);
+  EXPECT_EQ(compensator.gain(), 1.0);
+  // Off: never scaled; reset() forgets the gain.
+  ExposureCompensator off(0.0);
+  off.apply(image, &buffer);
+  EXPECT_EQ(off.apply(dark, &buffer).data, dark.data);
+  compensator.apply(dark, &buffer);
+  compensator.reset();
+  EXPECT_EQ(compensator.gain(), 1.0);
 }
 
 }  // namespace
