@@ -546,6 +546,10 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       std_srvs::Trigger::Request req;
       std_srvs::Trigger::Response res;
       resetBody(req, res);
+      // Samples buffered so far are on the old timeline, in the old epoch's seconds: none belongs to the
+      // restarted stream.
+      imu_buffer_.clear();
+      altimeter_buffer_.clear();
       have_epoch_ = false;   // the pipeline's clock starts again at this stream
       ++counts_.num_images;  // this image, counted before the reset
       *note = "image stamps jumped back by " + std::to_string(-jump_s) +
@@ -773,6 +777,9 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
         case SampleBuffer<ImuSample>::Insert::kTooOld:
           return rejectImu("out of order: " + std::to_string(*last_given - sample.timestamp_s) +
                            " s older than a sample already given to the pipeline");
+        case SampleBuffer<ImuSample>::Insert::kSuspect:
+          return rejectImu("stamp jumped " + std::to_string(sample.timestamp_s - newestImu(last_given)) +
+                           " s ahead of the stream: refused as suspect (the next sample decides)");
         case SampleBuffer<ImuSample>::Insert::kBuffered:
           break;
       }
@@ -794,6 +801,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     }
   }
 
+  /// The newest IMU stamp known before a suspect one (for its message).
+  double newestImu(const std::optional<double>& last_given) const {
+    return std::max(last_given.value_or(-1e300), last_imu_time_s_);
+  }
+
   /// Buffered until the image it precedes (the pipeline reads the altimeter causally per image).
   void altimeterCb(const sensor_msgs::RangeConstPtr& msg) {
     contained("altimeter callback", nullptr, [&] { altimeterBody(msg); });
@@ -813,6 +825,10 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
         case SampleBuffer<AltimeterSample>::Insert::kTooOld:
           return rejectAltimeter("out of order: " + std::to_string(*last_given - sample.timestamp_s) +
                                  " s older than a reading already given to the pipeline");
+        case SampleBuffer<AltimeterSample>::Insert::kSuspect:
+          return rejectAltimeter(
+              "stamp jumped more than 1 s ahead of the stream: refused as suspect (the "
+              "next reading decides)");
         case SampleBuffer<AltimeterSample>::Insert::kBuffered:
           break;
       }

@@ -433,12 +433,15 @@ TEST_F(VoBadInputTest, StaysAliveReportsAndResumes) {
     publishImu(m);                                             // zero stamp
     publishImu(imuMsg(dataset_->imu()[0], t_given - 0.0025));  // older than what the pipeline has
     publishImu(imuMsg(dataset_->imu()[0], t_given));           // duplicate of a sample already given
+    publishImu(imuMsg(dataset_->imu()[0], t_given + 3.15e7));  // a year ahead (issue 12: it pushed every
+                                                               // later sample out of the buffer)
     publishRange(rangeMsg(std::nan(""), t_given + 0.01));      // erroneous
     publishRange(rangeMsg(-5.0, t_given + 0.02));              // negative
     publishRange(rangeMsg(-inf, t_given + 0.03));              // REP-117: too close (no range)
     publishRange(rangeMsg(inf, t_given + 0.035));              // no return (no range)
     publishRange(rangeMsg(700.0, t_given - 0.01));             // out of order
-    const size_t imu_rejected = 5 + 1, altimeter_rejected = 3, no_range = 2;
+    publishRange(rangeMsg(700.0, t_given + 3.15e7));           // a year ahead
+    const size_t imu_rejected = 6 + 1, altimeter_rejected = 4, no_range = 2;
     // The next image's samples, one of them twice (a duplicate while buffered), then the image.
     publishSamplesUpTo(dataset_->timestamp(next));
     publishImu(imuMsg(dataset_->imu()[next_imu_ - 1], dataset_->imu()[next_imu_ - 1].timestamp_s));

@@ -372,6 +372,39 @@ TEST(VoConversions, SampleBufferGivesSamplesInStampOrderAndRefusesWhatThePipelin
   EXPECT_GT(given.front(), 14.0);
 }
 
+TEST(VoConversions, SampleBufferSurvivesStampJumps) {
+  // Issue 12: one IMU sample stamped a year ahead became the newest in the buffer, and every later sample was
+  // "more than max_span older than the newest" and dropped on insert: the IMU stream was dead for good.
+  using Insert = SampleBuffer<ImuSample>::Insert;
+  auto sample = [](double t) {
+    ImuSample s;
+    s.timestamp_s = t;
+    return s;
+  };
+  SampleBuffer<ImuSample> buffer(10.0, 1.0);
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(buffer.insert(sample(0.005 * i)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(3.15e7)), Insert::kSuspect) << "a year ahead: refused once";
+  for (int i = 10; i < 20; ++i) EXPECT_EQ(buffer.insert(sample(0.005 * i)), Insert::kBuffered) << i;
+  EXPECT_EQ(buffer.size(), 20u) << "the outlier pushed nothing out";
+  EXPECT_EQ(buffer.dropped(), 0u);
+  std::vector<double> given;
+  buffer.giveUpTo(0.1, [&](const ImuSample& s) { given.push_back(s.timestamp_s); });
+  EXPECT_EQ(given.size(), 20u);
+  // The clock really jumps 5 s: the first sample after the jump is refused as suspect, the next one follows
+  // it and confirms the jump; the stream goes on from there.
+  EXPECT_EQ(buffer.insert(sample(5.1)), Insert::kSuspect);
+  EXPECT_EQ(buffer.insert(sample(5.105)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(5.110)), Insert::kBuffered);
+  EXPECT_EQ(buffer.jumps(), 1u);
+  // A suspect followed by the old timeline was an outlier: no jump, nothing lost after it.
+  SampleBuffer<ImuSample> other(10.0, 1.0);
+  other.insert(sample(0.0));
+  EXPECT_EQ(other.insert(sample(7.0)), Insert::kSuspect);
+  EXPECT_EQ(other.insert(sample(0.005)), Insert::kBuffered);
+  EXPECT_EQ(other.insert(sample(7.005)), Insert::kSuspect) << "the earlier suspect no longer counts";
+  EXPECT_EQ(other.jumps(), 0u);
+}
+
 TEST(VoConversions, NavCovarianceFromThePipelineOrTheParameters) {
   const OdometrySigma sigma{0.1, 0.01, 100.0, 100};
   FrameResult r;
