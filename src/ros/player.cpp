@@ -4,6 +4,7 @@
 #include "planetary_vo/ros_io/player.h"
 
 #include <algorithm>
+#include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <tuple>
@@ -124,9 +125,15 @@ bool Player::next(PlayerMessage* message) {
       const std_msgs::Header camera_header = makeHeader(m.stamp, options_.camera_frame);
       // As the camera gives it: a 16-bit raw frame (the flight camera's MSB-aligned 10/12-bit pixels) as
       // mono16, 8-bit gray as mono8; colour datasets are converted to gray.
-      cv::Mat pixels = dataset_.loadImageUnchanged(event.index);
-      if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
-      m.image = toImageMsg(pixels, camera_header);
+      try {
+        cv::Mat pixels = dataset_.loadImageUnchanged(event.index);
+        if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
+        m.image = toImageMsg(pixels, camera_header);
+      } catch (const std::exception& e) {  // a corrupt or missing file: this frame is dropped, not the run
+        m.skipped = std::string("image ") + std::to_string(event.index) + " skipped: " + e.what();
+        ++skipped_images_;
+        return true;
+      }
       m.camera_info =
           boost::make_shared<sensor_msgs::CameraInfo>(toCameraInfo(dataset_.camera(), camera_header));
       if (dataset_.hasGroundTruth()) {
@@ -185,7 +192,9 @@ class BagSink : public PlayerSink {
     }
   }
 
-  void emit(const PlayerMessage& m) override { guarded([&] { emitToBag(m); }); }
+  void emit(const PlayerMessage& m) override {
+    guarded([&] { emitToBag(m); });
+  }
 
   void emitToBag(const PlayerMessage& m) {
     switch (m.kind) {
@@ -196,6 +205,10 @@ class BagSink : public PlayerSink {
         write(player_topics::kAltimeter, m.stamp, m.altimeter);
         break;
       case StreamKind::kImage:
+        if (!m.image) {
+          std::cerr << "player: " << m.skipped << "\n";
+          break;
+        }
         write(player_topics::kImage, m.stamp, *m.image);
         write(player_topics::kCameraInfo, m.stamp, *m.camera_info);
         if (m.has_ground_truth) {
@@ -210,7 +223,9 @@ class BagSink : public PlayerSink {
   }
 
   size_t count() const { return count_; }
-  void close() { guarded([&] { bag_->close(); }); }
+  void close() {
+    guarded([&] { bag_->close(); });
+  }
 
   /// A message `rosbag play` republishes latched (the connection header says so).
   template <class Msg>

@@ -87,6 +87,10 @@ class LivePublisher : public PlayerSink {
         altimeter_pub_.publish(m.altimeter);
         break;
       case StreamKind::kImage:
+        if (!m.image) {
+          ROS_ERROR_STREAM_THROTTLE(5, "player: " << m.skipped << " (the stream goes on)");
+          break;
+        }
         camera_pub_.publish(m.image, m.camera_info);
         if (m.has_ground_truth) {
           pose_pub_.publish(m.gt_pose);
@@ -208,7 +212,7 @@ class PlayerNode {
       }
       player_.next(&message);
       sink_.emit(message);
-      if (message.kind == StreamKind::kImage) {
+      if (message.kind == StreamKind::kImage && message.image) {
         ++images_published_;
         last_image_stamp_ = message.stamp;
       }
@@ -299,7 +303,8 @@ class PlayerNode {
     } catch (const std::exception& e) {
       ROS_ERROR_STREAM_THROTTLE(5, "player: " << ack_sub_.getTopic() << " message ignored: " << e.what());
     } catch (...) {
-      ROS_ERROR_STREAM_THROTTLE(5, "player: " << ack_sub_.getTopic() << " message ignored: unknown exception");
+      ROS_ERROR_STREAM_THROTTLE(5,
+                                "player: " << ack_sub_.getTopic() << " message ignored: unknown exception");
     }
   }
   void onAckBody(const topic_tools::ShapeShifter::ConstPtr& msg) {

@@ -2,6 +2,7 @@
 /// dataset with IMU and altimeter (no master).
 
 #include <algorithm>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -387,6 +388,41 @@ TEST(PlayerBag, SyntheticBagCarriesImuAndAltimeter) {
   const std::string bag = outputDir("player_bag_synthetic_out") + "/synthetic.bag";
   EXPECT_EQ(writeBag(dataset, PlayerOptions(), bag), 5 * 20u + 381u + 19u);
   checkBag(bag, dataset);
+}
+
+TEST(PlayerCore, CorruptImageFileIsSkippedAndTheStreamGoesOn) {
+  // Issue 12: a corrupt PNG ended a live player run (the DatasetError left the publishing loop). The frame is
+  // dropped with its reason, every other message of the stream (and of the next loop) still comes.
+  const Dataset dataset = openSynthetic("player_corrupt_png");
+  const size_t bad = 2;
+  {
+    std::ofstream corrupt(dataset.imagePath(bad), std::ios::binary | std::ios::trunc);
+    corrupt << "\x89PNG\r\n\x1a\n this is not an image";
+  }
+  PlayerOptions options;
+  options.loop = true;
+  Player player(dataset, options);
+  const size_t per_loop = player.schedule().size();
+  const std::vector<PlayerMessage> messages = drain(player, 2 * per_loop);
+  size_t images = 0, skipped = 0;
+  for (const PlayerMessage& m : messages) {
+    if (m.kind != StreamKind::kImage) continue;
+    if (m.index == bad) {
+      EXPECT_FALSE(m.image);
+      EXPECT_NE(m.skipped.find("image 2 skipped"), std::string::npos) << m.skipped;
+      ++skipped;
+    } else {
+      ASSERT_TRUE(m.image) << m.skipped;
+      EXPECT_TRUE(m.skipped.empty());
+      ++images;
+    }
+  }
+  EXPECT_EQ(skipped, 2u) << "once per loop";
+  EXPECT_EQ(images, 2 * (dataset.size() - 1));
+  EXPECT_EQ(player.skippedImages(), 2u);
+  // The bag writer drops the frame the same way.
+  const std::string bag = outputDir("player_corrupt_png_out") + "/corrupt.bag";
+  EXPECT_EQ(writeBag(dataset, PlayerOptions(), bag), 5 * 20u + 381u + 19u - 5u);
 }
 
 TEST(PlayerBag, DiskFullIsAnErrorNotATerminate) {

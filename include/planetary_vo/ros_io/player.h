@@ -101,7 +101,10 @@ struct PlayerMessage {
   ros::Time stamp;
   size_t index = 0;  ///< index of the sample in its stream
   size_t loop = 0;
+  /// kImage: null (and nothing else set) when the image file could not be read (a corrupt or missing PNG):
+  /// `skipped` says why. A camera that cannot deliver a frame drops it; the stream goes on.
   sensor_msgs::ImagePtr image;
+  std::string skipped;
   sensor_msgs::CameraInfoPtr camera_info;
   bool has_ground_truth = false;
   geometry_msgs::PoseStamped gt_pose;
@@ -143,6 +146,8 @@ class Player {
 
   /// Stamp of a dataset time in loop `loop`.
   ros::Time stampOf(double dataset_time_s, size_t loop = 0) const;
+  /// Images that could not be read (PlayerMessage::skipped), over all loops.
+  size_t skippedImages() const { return skipped_images_; }
 
  private:
   const Dataset& dataset_;
@@ -153,6 +158,7 @@ class Player {
   double loop_period_s_ = 0.0;
   size_t position_ = 0;
   size_t loop_ = 0;
+  size_t skipped_images_ = 0;
   nav_msgs::Path path_;
 };
 
