@@ -20,9 +20,27 @@ PnpResult solvePnpRansac(const std::vector<Eigen::Vector3d>& p_world, const std:
     r.reason = "too few correspondences for EPnP in RANSAC: " + std::to_string(px.size());
     return r;
   }
+  // The points normalised: relative to their centroid c, divided by their RMS distance s to it. OpenCV's
+  // EPnP RANSAC and LM refinement work with single-precision copies and absolute tolerances, so a vision-only
+  // map whose scale was bridged across many losses (1e-5 units wide, 170 units from the origin: soak
+  // benchmark, issue 12) gave a wrong pose or none. A monocular map has no unit of its own: the pose is
+  // solved in the normalised frame and moved back below (R unchanged, t = s t_n - R c).
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : p_world) centroid += p;
+  centroid /= static_cast<double>(p_world.size());
+  double scale = 0.0;
+  for (const auto& p : p_world) scale += (p - centroid).squaredNorm();
+  scale = std::sqrt(scale / static_cast<double>(p_world.size()));
+  if (!(scale > 0.0) || !std::isfinite(scale)) {
+    r.reason = "the map points coincide or are not finite";
+    return r;
+  }
   std::vector<cv::Point3d> obj;
   obj.reserve(p_world.size());
-  for (const auto& p : p_world) obj.emplace_back(p.x(), p.y(), p.z());
+  for (const auto& p : p_world) {
+    const Eigen::Vector3d n = (p - centroid) / scale;
+    obj.emplace_back(n.x(), n.y(), n.z());
+  }
   cv::Matx33d Kcv;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) Kcv(i, j) = K(i, j);
@@ -52,7 +70,8 @@ PnpResult solvePnpRansac(const std::vector<Eigen::Vector3d>& p_world, const std:
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R(i, j) = Rcv(i, j);
   r.T_cam_world.linear() = R;
-  r.T_cam_world.translation() = Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+  r.T_cam_world.translation() =
+      scale * Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)) - R * centroid;
 
   // Inliers re-selected with the refined pose, so that mask and RMS describe the pose we return.
   const double thr_sq = options.ransac.threshold_px * options.ransac.threshold_px;
