@@ -100,6 +100,8 @@ class SampleBuffer {
   bool empty() const { return samples_.empty(); }
   std::optional<double> lastGiven() const { return last_given_; }
   size_t dropped() const { return dropped_; }
+  /// The largest forward step that is not a stamp jump (kSuspect beyond it).
+  double maxJumpS() const { return max_jump_s_; }
   /// Forward stamp jumps confirmed by the sample after the suspect.
   size_t jumps() const { return jumps_; }
 
