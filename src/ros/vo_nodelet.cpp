@@ -826,9 +826,8 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
           return rejectAltimeter("out of order: " + std::to_string(*last_given - sample.timestamp_s) +
                                  " s older than a reading already given to the pipeline");
         case SampleBuffer<AltimeterSample>::Insert::kSuspect:
-          return rejectAltimeter(
-              "stamp jumped more than 1 s ahead of the stream: refused as suspect (the "
-              "next reading decides)");
+          return rejectAltimeter("stamp jumped more than " + std::to_string(altimeter_buffer_.maxJumpS()) +
+                                 " s ahead of the stream: refused as suspect (the next reading decides)");
         case SampleBuffer<AltimeterSample>::Insert::kBuffered:
           break;
       }
