@@ -372,6 +372,64 @@ TEST(VoConversions, SampleBufferGivesSamplesInStampOrderAndRefusesWhatThePipelin
   EXPECT_GT(given.front(), 14.0);
 }
 
+// Issue 12, found by the fuzz test (vo_fuzz): one altimeter reading stamped years ahead made every later good
+// reading "older than max_span before the newest", dropped on insert without a reason, so the altimeter was
+// lost for good (seed 20261127); one IMU sample stamped years ahead, given at once by the IMU-rate output,
+// made the pipeline refuse every later sample as out of order (seed 4). Now the good samples stay and are
+// given out; the outlier waits at the end, never given unless a next sample confirms the jump.
+TEST(VoConversions, SampleBufferKeepsGoodSamplesAfterOneStampedFarAhead) {
+  SampleBuffer<AltimeterSample> buffer(10.0);
+  auto sample = [](double t) {
+    AltimeterSample s;
+    s.timestamp_s = t;
+    s.slant_range_m = 500.0;
+    return s;
+  };
+  using Insert = SampleBuffer<AltimeterSample>::Insert;
+  EXPECT_EQ(buffer.insert(sample(1.0)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(634457813.0)), Insert::kBuffered);  // a corrupt stamp
+  for (int i = 1; i <= 80; ++i) EXPECT_EQ(buffer.insert(sample(1.0 + 0.25 * i)), Insert::kBuffered);
+  std::vector<double> given;
+  buffer.giveUpTo(21.0, [&](const AltimeterSample& s) { given.push_back(s.timestamp_s); });
+  // Flat memory still: the last 10 s up to 21 s (41 readings), none dropped for the outlier's sake.
+  ASSERT_EQ(given.size(), 41u);
+  EXPECT_EQ(given.front(), 11.0);
+  EXPECT_EQ(given.back(), 21.0);
+  EXPECT_EQ(buffer.size(), 1u);
+  EXPECT_EQ(buffer.giveAll([&](const AltimeterSample&) {}), 0u);     // unconfirmed: not given
+  EXPECT_EQ(buffer.insert(sample(21.25)), Insert::kBuffered);        // the stream goes on
+  EXPECT_EQ(buffer.insert(sample(634457800.0)), Insert::kBuffered);  // a second outlier, before the first
+  given.clear();
+  EXPECT_EQ(buffer.giveAll([&](const AltimeterSample& s) { given.push_back(s.timestamp_s); }), 1u);
+  EXPECT_EQ(given, std::vector<double>{21.25});
+  EXPECT_EQ(*buffer.lastGiven(), 21.25);
+  // Another outlier, newest of all (seed 6: it dropped every good reading relative to the older outlier).
+  EXPECT_EQ(buffer.insert(sample(21.5)), Insert::kBuffered);
+  EXPECT_EQ(buffer.insert(sample(1160913578.0)), Insert::kBuffered);
+  given.clear();
+  EXPECT_EQ(buffer.giveUpTo(21.5, [&](const AltimeterSample& s) { given.push_back(s.timestamp_s); }), 1u);
+  EXPECT_EQ(given, std::vector<double>{21.5});
+  // A stream that really jumps: the second sample of the new timeline drops the old ones and confirms the
+  // jump, after which both are given.
+  SampleBuffer<AltimeterSample> jumped(10.0);
+  jumped.insert(sample(1.0));
+  jumped.giveAll([](const AltimeterSample&) {});
+  jumped.insert(sample(1.25));
+  jumped.insert(sample(100.0));
+  EXPECT_EQ(jumped.size(), 2u);
+  given.clear();
+  EXPECT_EQ(jumped.giveAll([&](const AltimeterSample& s) { given.push_back(s.timestamp_s); }), 1u);
+  EXPECT_EQ(given, std::vector<double>{1.25});
+  jumped.insert(sample(100.25));
+  given.clear();
+  EXPECT_EQ(jumped.giveAll([&](const AltimeterSample& s) { given.push_back(s.timestamp_s); }), 2u);
+  EXPECT_EQ(given, (std::vector<double>{100.0, 100.25}));
+  jumped.insert(sample(100.5));
+  jumped.insert(sample(130.0));
+  jumped.insert(sample(130.25));
+  EXPECT_EQ(jumped.size(), 2u);  // 100.5 dropped: more than 10 s before the confirmed new timeline
+}
+
 TEST(VoConversions, NavCovarianceFromThePipelineOrTheParameters) {
   const OdometrySigma sigma{0.1, 0.01, 100.0, 100};
   FrameResult r;
@@ -487,6 +545,11 @@ TEST(VoConversions, PointCloudHasXyzAndObservations) {
   EXPECT_EQ(*n, 4u);
   ++n;
   EXPECT_EQ(*n, 2u);
+  // An empty map (the first frames): fields, no points, and no iterator over the empty data (UBSan, issue 12).
+  const sensor_msgs::PointCloud2 empty = toPointCloud({}, makeHeader(ros::Time(1, 0), "world"));
+  EXPECT_EQ(empty.width, 0u);
+  EXPECT_EQ(empty.fields.size(), 4u);
+  EXPECT_TRUE(empty.data.empty());
 }
 
 }  // namespace
