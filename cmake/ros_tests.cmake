@@ -93,6 +93,9 @@ endif()
 #     test_hazard_node   hazard_end_to_end: the AGNC graph (player -> VO -> hazard nodelet in one manager):
 #                        hazard/map against the true ground under the camera, occupancy, sites, status, a
 #                        malformed vo/map_events rejected
+#     test_vo_fuzz       vo_fuzz: ~250 seeded random malformed Image / CameraInfo / Imu / Range messages between
+#                        good frames into the fused configuration: alive, finite poses, a reason for every
+#                        rejection ($PLANETARY_VO_FUZZ_SEED; docs/ros_interface.md "Fuzz tests")
 #   ros_test_hazard_conversions  gtest, no master: hazard products <-> messages
 # ---------------------------------------------------------------------------------------------------------------
 foreach(name vo_conversions hazard_conversions map_event_conversions)
@@ -104,24 +107,36 @@ foreach(name vo_conversions hazard_conversions map_event_conversions)
 endforeach()
 
 # A short rendered Lunar descent (256 x 256, 6 s at 10 Hz) and the bag the player writes from it.
-set(VO_TEST_DATASET ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down)
-set(VO_TEST_BAG ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down.bag)
-add_custom_command(
-  OUTPUT ${VO_TEST_DATASET}/times.txt
-  COMMAND lunar_render --sequence approach_down --output ${VO_TEST_DATASET} --width 256 --height 256
-          --duration 6 --force --no-progress --threads 2
-  DEPENDS lunar_render
-  COMMENT "Rendering the Lunar test sequence of the VO rostests")
-add_custom_command(
-  OUTPUT ${VO_TEST_BAG}
-  COMMAND player --dataset ${VO_TEST_DATASET} --bag ${VO_TEST_BAG} --no-path
-  DEPENDS player ${VO_TEST_DATASET}/times.txt
-  COMMENT "Writing the Lunar test bag with player --bag --no-path")
-add_custom_target(vo_test_data DEPENDS ${VO_TEST_DATASET}/times.txt ${VO_TEST_BAG})
+# PLANETARY_VO_TEST_DATASET: an already rendered copy of that sequence (with its bag beside it, <folder>.bag)
+# is used as it is: the sanitizer build of scripts/run_tests.sh takes the main build's instead of rendering it
+# again with an instrumented renderer.
+set(PLANETARY_VO_TEST_DATASET "" CACHE PATH
+    "Rendered VO test sequence to use instead of rendering it (the sanitizer build reuses the main build's)")
+if(PLANETARY_VO_TEST_DATASET)
+  set(VO_TEST_DATASET ${PLANETARY_VO_TEST_DATASET})
+  set(VO_TEST_BAG ${PLANETARY_VO_TEST_DATASET}.bag)
+  add_custom_target(vo_test_data)
+else()
+  set(VO_TEST_DATASET ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down)
+  set(VO_TEST_BAG ${PLANETARY_VO_ROS_TEST_OUTPUT}/vo_lunar_approach_down.bag)
+  add_custom_command(
+    OUTPUT ${VO_TEST_DATASET}/times.txt
+    COMMAND lunar_render --sequence approach_down --output ${VO_TEST_DATASET} --width 256 --height 256
+            --duration 6 --force --no-progress --threads 2
+    DEPENDS lunar_render
+    COMMENT "Rendering the Lunar test sequence of the VO rostests")
+  add_custom_command(
+    OUTPUT ${VO_TEST_BAG}
+    COMMAND player --dataset ${VO_TEST_DATASET} --bag ${VO_TEST_BAG} --no-path
+    DEPENDS player ${VO_TEST_DATASET}/times.txt
+    COMMENT "Writing the Lunar test bag with player --bag --no-path")
+  add_custom_target(vo_test_data DEPENDS ${VO_TEST_DATASET}/times.txt ${VO_TEST_BAG})
+endif()
 add_dependencies(tests vo_test_data planetary_vo_nodelets vo_node)
 
 if(TARGET GTest::gtest)
-  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params test_vo_fused test_hazard_node)
+  foreach(node test_vo_node test_vo_bad_input test_vo_manager test_vo_params test_vo_fused test_hazard_node
+               test_vo_fuzz)
     add_executable(${node} EXCLUDE_FROM_ALL test/ros/${node}.cpp)
     target_link_libraries(${node} planetary_vo_ros planetary_vo_eval GTest::gtest)
     target_include_directories(${node} PRIVATE ${PROJECT_SOURCE_DIR}/test/ros)
@@ -152,6 +167,24 @@ if(TARGET GTest::gtest)
               DEPENDENCIES test_vo_fused player ${vo_deps})
   add_rostest(test/ros/hazard_end_to_end.test ARGS dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_hazard_node player ${vo_deps})
+  add_rostest(test/ros/vo_fuzz.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_fuzz ${vo_deps})
+endif()
+
+# ---------------------------------------------------------------------------------------------------------------
+# Fuzz test of the command-line tools (issue 12)
+#   ros_test_tools_fuzz  gtest, no master: vo_run, vo_eval and player --bag on mutated files (dataset, configs,
+#                        trajectories, truncated bag): success or exit code 1/2 with "<tool>: message", never a
+#                        signal or a hang. Seed $PLANETARY_VO_FUZZ_SEED, cases $PLANETARY_VO_FUZZ_TOOL_CASES.
+# ---------------------------------------------------------------------------------------------------------------
+catkin_add_gtest(ros_test_tools_fuzz test/ros/test_tools_fuzz.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+if(TARGET ros_test_tools_fuzz)
+  target_link_libraries(ros_test_tools_fuzz GTest::gtest_main)
+  add_dependencies(ros_test_tools_fuzz vo_run vo_eval player vo_test_data)
+  target_compile_definitions(ros_test_tools_fuzz PRIVATE
+    VO_RUN_EXE="$<TARGET_FILE:vo_run>" VO_EVAL_EXE="$<TARGET_FILE:vo_eval>" PLAYER_EXE="$<TARGET_FILE:player>"
+    VO_TEST_DATASET="${VO_TEST_DATASET}" PLANETARY_VO_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    PLANETARY_VO_TEST_OUTPUT_DIR="${PLANETARY_VO_ROS_TEST_OUTPUT}")
 endif()
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -423,9 +423,10 @@ void Renderer::Impl::buildBlockBounds() {
     for (int bj = 0; bj < L.nby; ++bj)
       for (int bi = 0; bi < L.nbx; ++bi) {
         const int64_t gbi = L.bx0 + bi, gbj = L.by0 + bj;
-        const bool inside = (gbi << kBlockShift) >= L.i0 && (gbj << kBlockShift) >= L.j0 &&
-                            ((gbi + 1) << kBlockShift) <= L.i0 + L.nx - 1 &&
-                            ((gbj + 1) << kBlockShift) <= L.j0 + L.ny - 1;
+        // Block indices are negative west and south of the origin: multiplied, not left-shifted (a left shift
+        // of a negative value is undefined before C++20; UBSan, issue 12).
+        const bool inside = gbi * kBlock >= L.i0 && gbj * kBlock >= L.j0 &&
+                            (gbi + 1) * kBlock <= L.i0 + L.nx - 1 && (gbj + 1) * kBlock <= L.j0 + L.ny - 1;
         float& out = L.bound[bj * L.nbx + bi];
         const float own = raw[li][bj * L.nbx + bi];
         if (!C) {

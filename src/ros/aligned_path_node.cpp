@@ -286,6 +286,8 @@ class AlignedPathNode {
     if (map_skipped_) return;
     sensor_msgs::PointCloud2 cloud = *map_;
     cloud.header.frame_id = outputFrame();
+    // No iterator over an empty cloud (the VO's map before its first points): it takes data.front() (UB).
+    if (cloud.data.empty()) return map_pub_.publish(cloud);
     sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
     for (; x != x.end(); ++x, ++y, ++z) {
       const Eigen::Vector3d p = alignment_.transform().transformPoint(Eigen::Vector3d(*x, *y, *z));

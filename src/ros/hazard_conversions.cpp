@@ -297,6 +297,7 @@ sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int str
   cloud.height = 1;
   cloud.width = static_cast<uint32_t>(points.size());
   cloud.is_dense = true;
+  if (points.empty()) return cloud;  // no iterator over empty data: it takes data.front() (UB; see toPointCloud)
   sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z"), i(cloud, "intensity");
   for (const auto& p : points) {
     *x = p[0], *y = p[1], *z = p[2], *i = p[3];

@@ -242,6 +242,9 @@ sensor_msgs::PointCloud2 toPointCloud(const std::vector<MapPointView>& points, c
   cloud.height = 1;
   cloud.width = static_cast<uint32_t>(points.size());
   cloud.is_dense = true;
+  // No iterator over an empty cloud: its constructor takes data.front() of an empty vector (a reference
+  // bound to a null pointer; UBSan in the sanitizer stage, issue 12, on the first frames with an empty map).
+  if (points.empty()) return cloud;
   sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
   sensor_msgs::PointCloud2Iterator<uint32_t> n(cloud, "observations");
   for (const MapPointView& p : points) {

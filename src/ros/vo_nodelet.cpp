@@ -790,7 +790,11 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       last_imu_time_s_ = std::max(last_imu_time_s_, sample.timestamp_s);
       have_last_imu_time_ = true;
       const auto& c = msg->angular_velocity_covariance;
-      have_gyro_covariance_ = c[0] > 0.0 && c[4] > 0.0 && c[8] > 0.0;
+      // Issue 12 (fuzz test): an infinite or huge covariance (inf, 1.8e308) made nav/odometry's twist
+      // covariance infinite. Only a finite one below kUnknownVariance is used.
+      have_gyro_covariance_ =
+          c[0] > 0.0 && c[4] > 0.0 && c[8] > 0.0 &&
+          std::all_of(c.begin(), c.end(), [](double v) { return std::abs(v) < kUnknownVariance; });
       if (have_gyro_covariance_) gyro_covariance_ = Eigen::Map<const Eigen::Matrix3d>(c.data()).transpose();
       if (pipeline_ && started_ && nav_active_) {
         imu_buffer_.giveAll([this](const ImuSample& s) { giveImu(s); });

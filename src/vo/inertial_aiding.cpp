@@ -34,6 +34,16 @@ void InertialAiding::add(const ImuSample& sample) {
   if (!std::isfinite(sample.timestamp_s)) throw std::invalid_argument("IMU sample: non-finite timestamp");
   if (!sample.angular_velocity_radps.allFinite() || !sample.specific_force_mps2.allFinite())
     throw std::invalid_argument("IMU sample at t = " + str(sample.timestamp_s) + " s: non-finite value");
+  // Issue 12 (fuzz test): one finite but absurd sample (1e300 m/s^2) made the propagated state infinite for
+  // good, every later image refused. No IMU measures beyond these bounds (a tactical gyro saturates near
+  // 35 rad/s, a lander's accelerometer near 500 m/s^2): such a sample is corrupt.
+  if (!(sample.angular_velocity_radps.norm() <= kMaxAngularRateRadps) ||
+      !(sample.specific_force_mps2.norm() <= kMaxSpecificForceMps2))
+    throw std::invalid_argument("IMU sample at t = " + str(sample.timestamp_s) + " s: angular rate " +
+                                str(sample.angular_velocity_radps.norm()) + " rad/s or specific force " +
+                                str(sample.specific_force_mps2.norm()) + " m/s^2 beyond any IMU's range (" +
+                                str(kMaxAngularRateRadps) + " rad/s, " + str(kMaxSpecificForceMps2) +
+                                " m/s^2)");
   ImuSample s = sample;
   s.timestamp_s -= config_.time_offset_s;
   if (first_ < samples_.size() && !(s.timestamp_s > samples_.back().timestamp_s))

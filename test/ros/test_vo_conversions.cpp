@@ -520,6 +520,11 @@ TEST(VoConversions, PointCloudHasXyzAndObservations) {
   EXPECT_EQ(*n, 4u);
   ++n;
   EXPECT_EQ(*n, 2u);
+  // An empty map (the first frames): fields, no points, and no iterator over the empty data (UBSan, issue 12).
+  const sensor_msgs::PointCloud2 empty = toPointCloud({}, makeHeader(ros::Time(1, 0), "world"));
+  EXPECT_EQ(empty.width, 0u);
+  EXPECT_EQ(empty.fields.size(), 4u);
+  EXPECT_TRUE(empty.data.empty());
 }
 
 }  // namespace

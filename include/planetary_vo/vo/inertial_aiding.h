@@ -32,10 +32,13 @@ class InertialAiding {
   explicit InertialAiding(const ImuAidingConfig& config);
 
   /// Buffers a sample (stamped on the IMU clock; stored at stamp - time_offset_s). Throws
-  /// std::invalid_argument for a non-finite stamp or value, or a stamp not after the newest buffered one
-  /// (the caller reorders by stamp); the buffer is unchanged then. Samples older than kHistoryS before the
-  /// newest are dropped (flat memory).
+  /// std::invalid_argument for a non-finite stamp or value, an angular rate above kMaxAngularRateRadps or a
+  /// specific force above kMaxSpecificForceMps2 (corrupt: beyond any IMU's range), or a stamp not after the
+  /// newest buffered one (the caller reorders by stamp); the buffer is unchanged then. Samples older than
+  /// kHistoryS before the newest are dropped (flat memory).
   void add(const ImuSample& sample);
+  static constexpr double kMaxAngularRateRadps = 1e3;   ///< |angular rate| of a sample add() accepts
+  static constexpr double kMaxSpecificForceMps2 = 1e4;  ///< |specific force| of a sample add() accepts
 
   /// Why [t0, t1] cannot be integrated ("" when it can): not covered by the buffer, or a gap.
   std::string coverageProblem(double t0_s, double t1_s) const;

@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
@@ -174,7 +175,8 @@ int main(int argc, char** argv) {
         options.alignment = parseAlignmentMode(value);
       } else if (arg == "--align-frames") {
         const double n = parseNumber(value, arg);
-        if (n < 0 || n != static_cast<size_t>(n))
+        // Range first: converting 1e308 to size_t is undefined (UBSan, issue 12 tools fuzz test).
+        if (!(n >= 0.0 && n <= 9007199254740992.0 && n == std::floor(n)))  // 2^53: every integer exact
           throw EvalError("--align-frames takes a count, got " + value);
         options.align_num_pairs = static_cast<size_t>(n);
       } else if (arg == "--max-dt") {
