@@ -127,8 +127,13 @@ def count_lines(path):
         return sum(1 for line in f if line.strip() and not line.startswith("#"))
 
 
+# The stages vo_run times per frame (FrameResult::times, frame_result.h), in its order.
+STAGES = ["tracking", "motion", "mapping", "ba", "total"]
+
+
 def parse_vo_run_log(path):
-    """Coverage (estimated frames only) and the per-frame time of the whole process() call."""
+    """Coverage (estimated frames only) and the per-frame time of each stage (median, p99) and of the whole
+    process() call."""
     found = {}
     with open(path) as f:
         for line in f:
@@ -139,9 +144,11 @@ def parse_vo_run_log(path):
             if m:
                 found["tracking"], found["lost"], found["recovered"] = (int(m.group(2)), int(m.group(3)),
                                                                         int(m.group(4)))
-            m = re.match(r"\s*total\s+([0-9.]+)\s+([0-9.]+)", line)
+            m = re.match(r"\s*(%s)\s+([0-9.]+)\s+([0-9.]+)\s*$" % "|".join(STAGES), line)
             if m:
-                found["track_median_ms"], found["track_p99_ms"] = float(m.group(1)), float(m.group(2))
+                found.setdefault("stage_ms", {})[m.group(1)] = (float(m.group(2)), float(m.group(3)))
+                if m.group(1) == "total":
+                    found["track_median_ms"], found["track_p99_ms"] = float(m.group(2)), float(m.group(3))
     if found.get("processed"):
         found["coverage"] = (found.get("tracking", 0) + found.get("recovered", 0)) / found["processed"]
     return found
@@ -408,6 +415,23 @@ def format_row(r):
 def format_tables(results):
     sep = "|" + "---|" * HEADER.count(" |")
     lines = [HEADER, sep] + [format_row(r) for r in results]
+    timed = [r for r in results if r.get("stage_ms")]
+    if timed:
+        lines += ["", "Time per processed frame by stage, median / p99 in ms (vo_run, FrameResult::times: tracking = "
+                  "image pyramid, KLT, replenishment detection, undistortion; motion = two-view or PnP + "
+                  "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
+                  "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
+                  "including any wait for it; total = the whole Pipeline::process() call). Wall clock on this "
+                  f"machine (nproc {os.cpu_count()}), other jobs not excluded:", "",
+                  "| sequence | image | sensors | config | " + " | ".join(STAGES) + " |",
+                  "|---|---|---|---|" + "---|" * len(STAGES)]
+        for r in timed:
+            image, sensors = conditions(r)[:2]
+            cells = []
+            for stage in STAGES:
+                t = r["stage_ms"].get(stage)
+                cells.append("-" if t is None else f"{t[0]:.2f} / {t[1]:.2f}")
+            lines.append(f"| {r['sequence']} | {image} | {sensors} | {r['config']} | " + " | ".join(cells) + " |")
     peers = peers_table()
     ideal512 = [r for r in results if r["group"] == "ideal512" and r["config"] == "default"]
     if ideal512:

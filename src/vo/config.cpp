@@ -84,6 +84,9 @@ std::vector<std::string> VoConfig::validationErrors() const {
   if (tracker.window_size_px % 2 == 0)
     errors.push_back("tracker.window_size_px: " + std::to_string(tracker.window_size_px) +
                      " must be odd (the window is centred on the feature)");
+  if (tracker.anchor_patch_px % 2 == 0)
+    errors.push_back("tracker.anchor_patch_px: " + std::to_string(tracker.anchor_patch_px) +
+                     " must be odd (the patch is centred on the feature)");
   if (bundle_adjustment.enabled && pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation)
     errors.push_back(
         "bundle_adjustment.enabled: true needs a map, but pipeline.trajectory_mode is "

@@ -110,6 +110,12 @@ void trackerFields(C& c, V& v) {
   v.enumeration("replenish_strategy", c.replenish_strategy);
   v("replenish_cell_min_features", c.replenish_cell_min_features, 1, 10000);
   v("min_tracked_features", c.min_tracked_features, 0, 100000);
+  v("anchor_refinement", c.anchor_refinement);
+  v("anchor_patch_px", c.anchor_patch_px, 3, 63);
+  v("anchor_max_shift_px", c.anchor_max_shift_px, 0.0, 100.0);
+  v("anchor_max_residual_ratio", c.anchor_max_residual_ratio, 0.0, 10.0);
+  v("anchor_max_age_frames", c.anchor_max_age_frames, 1, 100000);
+  v("anchor_warp_min_tracks", c.anchor_warp_min_tracks, 0, 100000);
 }
 
 template <class C, class V>

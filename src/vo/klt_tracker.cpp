@@ -4,6 +4,8 @@
 #include "planetary_vo/vo/klt_tracker.h"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +28,7 @@ KltTracker::KltTracker(const TrackerConfig& config, const DetectorConfig& detect
 
 void KltTracker::reset() {
   tracks_.clear();
+  anchors_.clear();
   has_previous_ = false;
 }
 
@@ -34,12 +37,18 @@ int KltTracker::removeTracks(const std::vector<uint64_t>& ids) {
   std::vector<uint64_t> sorted(ids);
   std::sort(sorted.begin(), sorted.end());
   const size_t before = tracks_.size();
-  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
-                               [&](const FeatureTrack& t) {
-                                 return std::binary_search(sorted.begin(), sorted.end(), t.id);
-                               }),
-                tracks_.end());
-  return static_cast<int>(before - tracks_.size());
+  size_t kept = 0;
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    if (std::binary_search(sorted.begin(), sorted.end(), tracks_[i].id)) continue;
+    if (kept != i) {
+      tracks_[kept] = tracks_[i];
+      if (!anchors_.empty()) anchors_[kept] = std::move(anchors_[i]);
+    }
+    ++kept;
+  }
+  tracks_.resize(kept);
+  if (!anchors_.empty()) anchors_.resize(kept);
+  return static_cast<int>(before - kept);
 }
 
 void KltTracker::buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const {
@@ -137,6 +146,92 @@ void KltTracker::addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t f
   }
 }
 
+void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
+  anchors_[i].patch = makeAnchorPatch(gray, tracks_[i].px, config_.anchor_patch_px);
+  anchors_[i].frame = frame_index_;
+  anchors_[i].px = tracks_[i].px;
+}
+
+std::map<int64_t, cv::Matx22f> KltTracker::anchorWarps() const {
+  // Per anchor frame: the least-squares linear map from the anchor positions to the current ones of the
+  // tracks anchored there, about their centroids (the image's rotation and zoom since that frame).
+  struct Sums {
+    cv::Point2d a, d;
+    cv::Matx22d aa = cv::Matx22d::zeros(), da = cv::Matx22d::zeros();
+    int n = 0;
+  };
+  std::map<int64_t, Sums> sums;
+  for (size_t i = 0; i < anchors_.size(); ++i) {
+    if (!anchors_[i].patch.valid() || anchors_[i].frame == frame_index_) continue;
+    Sums& s = sums[anchors_[i].frame];
+    s.a += cv::Point2d(anchors_[i].px);
+    s.d += cv::Point2d(tracks_[i].px);
+    ++s.n;
+  }
+  for (auto& [frame, s] : sums) {
+    s.a /= s.n;
+    s.d /= s.n;
+  }
+  for (size_t i = 0; i < anchors_.size(); ++i) {
+    if (!anchors_[i].patch.valid() || anchors_[i].frame == frame_index_) continue;
+    Sums& s = sums[anchors_[i].frame];
+    const cv::Vec2d a(anchors_[i].px.x - s.a.x, anchors_[i].px.y - s.a.y);
+    const cv::Vec2d d(tracks_[i].px.x - s.d.x, tracks_[i].px.y - s.d.y);
+    s.aa += a * a.t();
+    s.da += d * a.t();
+  }
+  std::map<int64_t, cv::Matx22f> warps;
+  for (const auto& [frame, s] : sums) {
+    cv::Matx22f warp = cv::Matx22f::eye();
+    // Enough tracks, spread in two directions (the anchor positions' spread matrix well conditioned).
+    const double trace = s.aa(0, 0) + s.aa(1, 1), det = cv::determinant(s.aa);
+    if (s.n >= config_.anchor_warp_min_tracks && det > 1e-3 * trace * trace) {
+      const cv::Matx22d m = s.da * s.aa.inv();
+      if (std::isfinite(m(0, 0)) && std::isfinite(m(0, 1)) && std::isfinite(m(1, 0)) &&
+          std::isfinite(m(1, 1)))
+        warp = cv::Matx22f(m);
+    }
+    warps[frame] = warp;
+  }
+  return warps;
+}
+
+void KltTracker::refineToAnchors(const cv::Mat& gray, TrackingResult* result) {
+  // Tracks added since the last call (detection, restart) get their first anchor here; anchors_ is parallel
+  // to tracks_, and new tracks are appended.
+  const size_t old_count = anchors_.size();
+  anchors_.resize(tracks_.size());
+  for (size_t i = old_count; i < tracks_.size(); ++i) reanchor(gray, i);
+  const double max_shift2 = config_.anchor_max_shift_px * config_.anchor_max_shift_px;
+  const std::map<int64_t, cv::Matx22f> warps =
+      config_.anchor_warp_min_tracks > 0 ? anchorWarps() : std::map<int64_t, cv::Matx22f>();
+  for (size_t i = 0; i < old_count; ++i) {
+    FeatureTrack& t = tracks_[i];
+    Anchor& anchor = anchors_[i];
+    if (anchor.frame == frame_index_) continue;  // anchored in this very image: nothing to refine
+    bool used = false;
+    if (anchor.patch.valid()) {
+      const auto warp = warps.find(anchor.frame);
+      const PatchAlignment aligned =
+          alignPatch(anchor.patch, gray, t.px, config_.max_iterations, config_.epsilon_px,
+                     warp != warps.end() ? warp->second : cv::Matx22f::eye());
+      const cv::Point2f shift = aligned.px - t.px;
+      if (aligned.converged && shift.dot(shift) <= max_shift2 &&
+          aligned.residual_ratio <= config_.anchor_max_residual_ratio) {
+        t.px = aligned.px;
+        used = true;
+        ++result->num_refined;
+      }
+    }
+    if (!used) {
+      ++result->num_reanchored;
+      reanchor(gray, i);
+    } else if (frame_index_ - anchor.frame >= config_.anchor_max_age_frames) {
+      reanchor(gray, i);
+    }
+  }
+}
+
 TrackingResult KltTracker::track(const cv::Mat& gray) {
   if (gray.empty() || gray.type() != CV_8UC1)
     throw std::invalid_argument("KltTracker::track: expected a non-empty 8-bit single-channel image");
@@ -159,18 +254,26 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
     if (config_.predict_flow) predictPositions();
     trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, &result);
+    const bool anchored = !anchors_.empty();
     size_t kept = 0;
     for (size_t i = 0; i < tracks_.size(); ++i) {
       if (!keep_[i]) continue;
+      if (anchored && kept != i) anchors_[kept] = std::move(anchors_[i]);
       FeatureTrack& t = tracks_[kept++];
       t = tracks_[i];
       t.prev_px = t.px;
       t.px = curr_px_[i];
       ++t.age_frames;
-      result.correspondences.push_back(t.id, t.prev_px, t.px);
     }
     tracks_.resize(kept);
+    if (anchored) anchors_.resize(kept);
     result.lk_ms = msSince(t_lk);
+    if (config_.anchor_refinement) {
+      const int64 t_refine = cv::getTickCount();
+      refineToAnchors(gray, &result);
+      result.refine_ms = msSince(t_refine);
+    }
+    for (const FeatureTrack& t : tracks_) result.correspondences.push_back(t.id, t.prev_px, t.px);
   }
 
   const int64 t_detect = cv::getTickCount();
@@ -180,6 +283,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
       // one, so that this frame pair still yields correspondences.
       result.restarted = true;
       tracks_.clear();
+      anchors_.clear();
       result.correspondences.clear();
       const std::vector<cv::KeyPoint> fresh = detector_.detect(prev_pyramid_[0]);
       prev_px_.clear();
@@ -213,6 +317,14 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     result.num_new = static_cast<int>(fresh.size());
   }
   result.detect_ms = msSince(t_detect);
+  if (config_.anchor_refinement) {
+    // The new tracks' anchors (they were detected in, or restarted into, this image).
+    const size_t old_count = anchors_.size();
+    anchors_.resize(tracks_.size());
+    for (size_t i = old_count; i < tracks_.size(); ++i) reanchor(gray, i);
+  } else {
+    anchors_.clear();
+  }
   result.num_tracked = static_cast<int>(result.correspondences.size());
 
   std::swap(prev_pyramid_, curr_pyramid_);

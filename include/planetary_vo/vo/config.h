@@ -75,6 +75,18 @@ struct TrackerConfig {
   int replenish_cell_min_features =
       1;                           ///< kEmptyCells: a cell holding fewer tracks than this gets new features
   int min_tracked_features = 100;  ///< kRestartBelowMin: restart detection below this many tracks
+  /// After KLT, align each track's anchor patch (its patch when detected or last re-anchored) in the new
+  /// image (patch_alignment.h, SVO's feature alignment), so that its position error does not grow with its
+  /// age.
+  bool anchor_refinement = true;
+  int anchor_patch_px = 11;          ///< side of the anchor patch (odd)
+  double anchor_max_shift_px = 1.0;  ///< a refinement farther than this from KLT is not used: re-anchored
+  double anchor_max_residual_ratio =
+      0.3;                         ///< nor one whose RMS residual exceeds this fraction of the contrast
+  int anchor_max_age_frames = 20;  ///< the anchor is renewed after this many frames (appearance changes)
+  /// The patch is warped by the rotation and zoom since its anchor frame, fitted to the tracks anchored in
+  /// the same frame when there are at least this many; 0 = never warped (translation only).
+  int anchor_warp_min_tracks = 8;
 };
 
 enum class MotionModel { kFundamental, kEssential, kHomography, kAuto };

@@ -5,6 +5,7 @@
 /// (surviving tracks are kept and new features are detected only where the grid has become empty).
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -12,6 +13,7 @@
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/feature_tracks.h"
 #include "planetary_vo/vo/grid_detector.h"
+#include "planetary_vo/vo/patch_alignment.h"
 
 namespace planetary_vo {
 
@@ -24,9 +26,12 @@ struct TrackingResult {
   int num_lost_fb = 0;       ///< forward-backward round trip off by more than fb_max_error_px
   int num_new = 0;           ///< features added this frame (replenishment, first frame or restart)
   bool restarted = false;    ///< restart_below_min: all tracks were dropped and detection started afresh
+  int num_refined = 0;       ///< anchor refinement: tracks moved to their anchor patch's alignment
+  int num_reanchored = 0;    ///< anchor refinement: alignment failed or was too far from KLT; new anchor
   FrameCorrespondences correspondences;  ///< previous -> current pixels of the tracks carried over
   double pyramid_ms = 0.0;               ///< building the LK pyramid of the new image
   double lk_ms = 0.0;                    ///< forward and backward LK
+  double refine_ms = 0.0;                ///< anchor refinement (TrackerConfig::anchor_refinement)
   double detect_ms = 0.0;                ///< replenishment / restart detection
   double total_ms = 0.0;
 };
@@ -35,7 +40,8 @@ struct TrackingResult {
 ///
 /// Each image's LK pyramid is built once (cv::buildOpticalFlowPyramid) and reused as the previous pyramid for
 /// the next frame, for the forward and for the backward pass. The image is copied into the pyramid, so the
-/// caller may reuse its buffer after track() returns.
+/// caller may reuse its buffer after track() returns. With TrackerConfig::anchor_refinement, each track keeps
+/// the patch it had when anchored (patch_alignment.h) and the KLT position is refined against it.
 ///
 /// Threading: not thread-safe; one instance per image stream.
 class KltTracker {
@@ -74,6 +80,12 @@ class KltTracker {
   /// Where each live track is expected in the next image (TrackerConfig::predict_flow) into guess_px_.
   void predictPositions();
   void addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t frame);
+  /// Anchor refinement of the tracks' positions in `gray` (their KLT positions); fills the counts.
+  void refineToAnchors(const cv::Mat& gray, TrackingResult* result);
+  /// Per anchor frame, the linear part of the image motion since it (anchor_warp_min_tracks).
+  std::map<int64_t, cv::Matx22f> anchorWarps() const;
+  /// A new anchor for track i at its current position in `gray`.
+  void reanchor(const cv::Mat& gray, size_t i);
 
   TrackerConfig config_;
   GridDetector detector_;
@@ -81,6 +93,13 @@ class KltTracker {
   cv::Size win_size_;
 
   std::vector<FeatureTrack> tracks_;
+  /// Parallel to tracks_ (anchor refinement): the anchor patch and the frame it was cut from.
+  struct Anchor {
+    AnchorPatch patch;
+    int64_t frame = 0;
+    cv::Point2f px;  ///< where the patch was cut
+  };
+  std::vector<Anchor> anchors_;
   uint64_t next_id_ = 0;
   int64_t frame_index_ = -1;
   bool has_previous_ = false;

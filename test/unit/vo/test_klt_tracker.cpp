@@ -55,9 +55,11 @@ ErrorStats trackingErrors(const FrameCorrespondences& c, const ViewPair& views, 
   return s;
 }
 
-void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed) {
+/// `mean_max_px`: the mean error allowed over the interior points.
+void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed,
+                            const TrackerConfig& config = TrackerConfig(), double mean_max_px = 0.02) {
   const ViewPair views = warpedPair(kSize, A, seed);
-  KltTracker tracker{TrackerConfig(), DetectorConfig()};
+  KltTracker tracker{config, DetectorConfig()};
   const TrackingResult first = tracker.track(views.first);
   EXPECT_EQ(first.frame_index, 0);
   EXPECT_EQ(first.num_new, 300);
@@ -72,7 +74,7 @@ void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed) {
   const ErrorStats e = trackingErrors(second.correspondences, views, true);
   EXPECT_GE(e.count, 240);
   EXPECT_LT(e.max_px, 0.1);
-  EXPECT_LT(e.mean_px, 0.02);
+  EXPECT_LT(e.mean_px, mean_max_px);
   // Near the border the accuracy is lower, but the forward-backward check still bounds it.
   EXPECT_LT(trackingErrors(second.correspondences, views, false).max_px, TrackerConfig().fb_max_error_px);
 }
@@ -91,7 +93,12 @@ TEST(KltTracker, SmallRotationAndScaleAreRecovered) {
   // edge (larger inter-frame rotations are what the pyramid-level prediction of a later stage is for).
   cv::Matx23d A = cv::getRotationMatrix2D(centre, 0.4, 1.003);
   A(0, 2) += 0.4;
-  expectAccurateTracking(A, 13);
+  TrackerConfig klt_only;
+  klt_only.anchor_refinement = false;
+  expectAccurateTracking(A, 13, klt_only);
+  // The anchor refinement's 11 px translation-only patch is a little less accurate on one deformed step
+  // (measured: mean 0.022 px against LK's 0.018); what it gains is on long tracks (test_patch_alignment.cpp).
+  expectAccurateTracking(A, 13, TrackerConfig(), 0.03);
 }
 
 /// Views of one plane-wave texture moving right and up by `shift_px[k]` in frame k (the image content of a
