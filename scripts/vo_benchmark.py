@@ -418,7 +418,7 @@ def format_tables(results):
     timed = [r for r in results if r.get("stage_ms")]
     if timed:
         lines += ["", "Time per processed frame by stage, median / p99 in ms (vo_run, FrameResult::times: tracking = "
-                  "image pyramid, KLT, replenishment detection, undistortion; motion = two-view or PnP + "
+                  "image pyramid, KLT, anchor refinement, replenishment detection, undistortion; motion = two-view or PnP + "
                   "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
                   "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
                   "including any wait for it; total = the whole Pipeline::process() call). Wall clock on this "

@@ -50,7 +50,7 @@ const char* toString(ScaleSource source);
 
 /// Wall-clock time spent per stage on this frame, in milliseconds.
 struct StageTimesMs {
-  double tracking_ms = 0.0;  ///< KLT tracking + replenishment detection + undistortion
+  double tracking_ms = 0.0;  ///< image pyramid, KLT, anchor refinement, replenishment detection, undistortion
   double motion_ms =
       0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
