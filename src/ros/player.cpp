@@ -42,7 +42,7 @@ const char* toString(StreamKind kind) {
 
 std::vector<StreamEvent> buildSchedule(const Dataset& dataset, size_t start_index) {
   if (start_index >= dataset.size())
-    throw std::out_of_range("player: start index " + std::to_string(start_index) + " but the dataset has " +
+    throw std::out_of_range("start index " + std::to_string(start_index) + " but the dataset has " +
                             std::to_string(dataset.size()) + " images");
   const double t_start = dataset.timestamp(start_index);
   std::vector<StreamEvent> events;
@@ -70,8 +70,7 @@ ros::Time chooseEpoch(const Dataset& dataset, double time_offset_s) {
 
 Player::Player(const Dataset& dataset, const PlayerOptions& options)
     : dataset_(dataset), options_(options), epoch_(chooseEpoch(dataset, options.time_offset_s)) {
-  if (dataset.size() == 0)
-    throw std::invalid_argument("player: the dataset " + dataset.directory() + " is empty");
+  if (dataset.size() == 0) throw std::invalid_argument("the dataset " + dataset.directory() + " is empty");
   if (options_.altimeter_frame.empty()) options_.altimeter_frame = options_.camera_frame;
   if (options_.sensor_spec_from_dataset) {
     options_.altimeter = altimeterSpec(dataset.sensorSpecification(), options_.altimeter);
@@ -314,7 +313,7 @@ size_t writeBag(const Dataset& dataset, const PlayerOptions& options, const std:
   if (options.publish_initial_state) {
     std::string why;
     initial_state = initialStateMessage(player, &why);
-    if (!initial_state) throw std::runtime_error("player: no initial state to write: " + why);
+    if (!initial_state) throw std::runtime_error("no initial state to write: " + why);
   }
   BagSink sink(bag_path);
   // 1 ms before the first image in bag time (the header keeps the image's stamp), so that rosbag play sends
@@ -345,7 +344,7 @@ PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw std::invalid_argument("player: " + a + " needs a value");
+      if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
       return args[++i];
     };
     auto number = [&](const std::string& text) {
@@ -356,8 +355,7 @@ PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
       } catch (const std::exception&) {
         used = 0;
       }
-      if (used == 0 || used != text.size())
-        throw std::invalid_argument("player: " + a + ": not a number: " + text);
+      if (used == 0 || used != text.size()) throw std::invalid_argument(a + ": not a number: " + text);
       return v;
     };
     if (a == "-h" || a == "--help") {
@@ -371,7 +369,7 @@ PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
       const double v = number(text);
       // Range first: converting 1e308 to size_t is undefined (UBSan, issue 12 tools fuzz test).
       if (!(v >= 0.0 && v <= 9007199254740992.0 && v == std::floor(v)))  // 2^53: every integer exact
-        throw std::invalid_argument("player: --start needs an image index, got " + text);
+        throw std::invalid_argument("--start needs an image index, got " + text);
       cl.start_index = static_cast<size_t>(v);
     } else if (a == "--time-offset") {
       cl.time_offset_s = number(value());
@@ -386,7 +384,7 @@ PlayerCommandLine parsePlayerCommandLine(const std::vector<std::string>& args) {
     } else if (a == "--initial-state") {
       cl.initial_state = true;
     } else {
-      throw std::invalid_argument("player: unknown argument '" + a + "'");
+      throw std::invalid_argument("unknown argument '" + a + "'");
     }
   }
   return cl;
