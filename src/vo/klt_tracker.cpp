@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -152,69 +151,77 @@ void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
   anchors_[i].px = tracks_[i].px;
 }
 
-std::map<int64_t, cv::Matx22f> KltTracker::anchorWarps() const {
+void KltTracker::fitAnchorWarps() {
   // Per anchor frame: the least-squares linear map from the anchor positions to the current ones of the
-  // tracks anchored there, about their centroids (the image's rotation and zoom since that frame).
-  struct Sums {
-    cv::Point2d a, d;
-    cv::Matx22d aa = cv::Matx22d::zeros(), da = cv::Matx22d::zeros();
-    int n = 0;
+  // tracks anchored there, about their centroids (the image's rotation and zoom since that frame). warps_ is
+  // a member so that its storage is reused frame after frame (a few dozen anchor frames at most).
+  warps_.clear();
+  auto warpOf = [this](int64_t frame) -> AnchorWarp& {
+    for (AnchorWarp& w : warps_)
+      if (w.frame == frame) return w;
+    warps_.push_back(AnchorWarp{frame});
+    return warps_.back();
   };
-  std::map<int64_t, Sums> sums;
   for (size_t i = 0; i < anchors_.size(); ++i) {
     if (!anchors_[i].patch.valid() || anchors_[i].frame == frame_index_) continue;
-    Sums& s = sums[anchors_[i].frame];
-    s.a += cv::Point2d(anchors_[i].px);
-    s.d += cv::Point2d(tracks_[i].px);
-    ++s.n;
+    AnchorWarp& w = warpOf(anchors_[i].frame);
+    w.mean_anchor += cv::Point2d(anchors_[i].px);
+    w.mean_now += cv::Point2d(tracks_[i].px);
+    ++w.n;
   }
-  for (auto& [frame, s] : sums) {
-    s.a /= s.n;
-    s.d /= s.n;
+  for (AnchorWarp& w : warps_) {
+    w.mean_anchor /= w.n;
+    w.mean_now /= w.n;
   }
   for (size_t i = 0; i < anchors_.size(); ++i) {
     if (!anchors_[i].patch.valid() || anchors_[i].frame == frame_index_) continue;
-    Sums& s = sums[anchors_[i].frame];
-    const cv::Vec2d a(anchors_[i].px.x - s.a.x, anchors_[i].px.y - s.a.y);
-    const cv::Vec2d d(tracks_[i].px.x - s.d.x, tracks_[i].px.y - s.d.y);
-    s.aa += a * a.t();
-    s.da += d * a.t();
+    AnchorWarp& w = warpOf(anchors_[i].frame);
+    const cv::Vec2d a(anchors_[i].px.x - w.mean_anchor.x, anchors_[i].px.y - w.mean_anchor.y);
+    const cv::Vec2d d(tracks_[i].px.x - w.mean_now.x, tracks_[i].px.y - w.mean_now.y);
+    w.aa += a * a.t();
+    w.da += d * a.t();
   }
-  std::map<int64_t, cv::Matx22f> warps;
-  for (const auto& [frame, s] : sums) {
-    cv::Matx22f warp = cv::Matx22f::eye();
+  for (AnchorWarp& w : warps_) {
     // Enough tracks, spread in two directions (the anchor positions' spread matrix well conditioned).
-    const double trace = s.aa(0, 0) + s.aa(1, 1), det = cv::determinant(s.aa);
-    if (s.n >= config_.anchor_warp_min_tracks && det > 1e-3 * trace * trace) {
-      const cv::Matx22d m = s.da * s.aa.inv();
+    const double trace = w.aa(0, 0) + w.aa(1, 1), det = cv::determinant(w.aa);
+    if (w.n >= config_.anchor_warp_min_tracks && det > 1e-3 * trace * trace) {
+      const cv::Matx22d m = w.da * w.aa.inv();
       if (std::isfinite(m(0, 0)) && std::isfinite(m(0, 1)) && std::isfinite(m(1, 0)) &&
           std::isfinite(m(1, 1)))
-        warp = cv::Matx22f(m);
+        w.warp = cv::Matx22f(m);
     }
-    warps[frame] = warp;
   }
-  return warps;
 }
 
-void KltTracker::refineToAnchors(const cv::Mat& gray, TrackingResult* result) {
-  // Tracks added since the last call (detection, restart) get their first anchor here; anchors_ is parallel
-  // to tracks_, and new tracks are appended.
+cv::Matx22f KltTracker::anchorWarp(int64_t frame) const {
+  for (const AnchorWarp& w : warps_)
+    if (w.frame == frame) return w.warp;
+  return cv::Matx22f::eye();
+}
+
+void KltTracker::anchorNewTracks(const cv::Mat& gray) {
+  // anchors_ is parallel to tracks_, and new tracks are appended: the tail without an anchor is new.
   const size_t old_count = anchors_.size();
   anchors_.resize(tracks_.size());
   for (size_t i = old_count; i < tracks_.size(); ++i) reanchor(gray, i);
+}
+
+void KltTracker::refineToAnchors(const cv::Mat& gray, TrackingResult* result) {
+  // Every live track has its anchor (anchorNewTracks() at the end of each track() call, and removeTracks()
+  // keeps anchors_ parallel), except right after the refinement was switched on: those get one now.
+  const size_t old_count = anchors_.size();
+  anchorNewTracks(gray);
   const double max_shift2 = config_.anchor_max_shift_px * config_.anchor_max_shift_px;
-  const std::map<int64_t, cv::Matx22f> warps =
-      config_.anchor_warp_min_tracks > 0 ? anchorWarps() : std::map<int64_t, cv::Matx22f>();
+  warps_.clear();
+  if (config_.anchor_warp_min_tracks > 0) fitAnchorWarps();
   for (size_t i = 0; i < old_count; ++i) {
     FeatureTrack& t = tracks_[i];
     Anchor& anchor = anchors_[i];
     if (anchor.frame == frame_index_) continue;  // anchored in this very image: nothing to refine
     bool used = false;
     if (anchor.patch.valid()) {
-      const auto warp = warps.find(anchor.frame);
-      const PatchAlignment aligned =
-          alignPatch(anchor.patch, gray, t.px, config_.max_iterations, config_.epsilon_px,
-                     warp != warps.end() ? warp->second : cv::Matx22f::eye());
+      const PatchAlignment aligned = alignPatch(anchor.patch, gray, t.px, config_.max_iterations,
+                                                config_.epsilon_px, anchorWarp(anchor.frame));
       const cv::Point2f shift = aligned.px - t.px;
       if (aligned.converged && shift.dot(shift) <= max_shift2 &&
           aligned.residual_ratio <= config_.anchor_max_residual_ratio) {
@@ -318,10 +325,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
   }
   result.detect_ms = msSince(t_detect);
   if (config_.anchor_refinement) {
-    // The new tracks' anchors (they were detected in, or restarted into, this image).
-    const size_t old_count = anchors_.size();
-    anchors_.resize(tracks_.size());
-    for (size_t i = old_count; i < tracks_.size(); ++i) reanchor(gray, i);
+    anchorNewTracks(gray);  // they were detected in, or restarted into, this image
   } else {
     anchors_.clear();
   }

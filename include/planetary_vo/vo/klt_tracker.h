@@ -5,7 +5,6 @@
 /// (surviving tracks are kept and new features are detected only where the grid has become empty).
 
 #include <cstdint>
-#include <map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -82,8 +81,12 @@ class KltTracker {
   void addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t frame);
   /// Anchor refinement of the tracks' positions in `gray` (their KLT positions); fills the counts.
   void refineToAnchors(const cv::Mat& gray, TrackingResult* result);
-  /// Per anchor frame, the linear part of the image motion since it (anchor_warp_min_tracks).
-  std::map<int64_t, cv::Matx22f> anchorWarps() const;
+  /// Fits warps_: per anchor frame, the linear part of the image motion since it (anchor_warp_min_tracks).
+  void fitAnchorWarps();
+  /// The fitted warp of an anchor frame; identity when it has none.
+  cv::Matx22f anchorWarp(int64_t frame) const;
+  /// Anchors the tracks appended since the last call (detection, restart) in `gray`.
+  void anchorNewTracks(const cv::Mat& gray);
   /// A new anchor for track i at its current position in `gray`.
   void reanchor(const cv::Mat& gray, size_t i);
 
@@ -100,6 +103,15 @@ class KltTracker {
     cv::Point2f px;  ///< where the patch was cut
   };
   std::vector<Anchor> anchors_;
+  /// fitAnchorWarps()' sums and result per anchor frame.
+  struct AnchorWarp {
+    int64_t frame = 0;
+    cv::Point2d mean_anchor, mean_now;
+    cv::Matx22d aa = cv::Matx22d::zeros(), da = cv::Matx22d::zeros();
+    int n = 0;
+    cv::Matx22f warp = cv::Matx22f::eye();
+  };
+  std::vector<AnchorWarp> warps_;
   uint64_t next_id_ = 0;
   int64_t frame_index_ = -1;
   bool has_previous_ = false;
