@@ -127,8 +127,9 @@ def count_lines(path):
         return sum(1 for line in f if line.strip() and not line.startswith("#"))
 
 
-# The stages vo_run times per frame (FrameResult::times, frame_result.h), in its order.
-STAGES = ["tracking", "motion", "mapping", "ba", "total"]
+# The stages vo_run times per frame (FrameResult::times, frame_result.h), in its order; pyramid, klt, refine and
+# detect are parts of tracking.
+STAGES = ["tracking", "pyramid", "klt", "refine", "detect", "motion", "mapping", "ba", "total"]
 
 
 def parse_vo_run_log(path):
@@ -181,6 +182,18 @@ def dataset_name(row, duration):
     if duration > 0:
         name += f"_{duration:g}s"
     return name
+
+
+def render_command(row, bin_dir, dataset, duration):
+    """The lunar_render call that makes a Lunar row's dataset (cached by lunar_render when unchanged)."""
+    cmd = [os.path.join(bin_dir, "lunar_render"), "--sequence", row["sequence"], "--output", dataset,
+           "--width", str(row["size"]), "--height", str(row["size"]), "--sensors", row["sensors"],
+           "--seed", str(row["seed"]), "--dem", row["dem"], "--placement-rank", str(row["placement_rank"]),
+           "--sun-elevation", str(row["sun_elevation"]), "--sun-azimuth", str(row["sun_azimuth"]),
+           "--sensor-seed", str(row["sensor_seed"]), "--no-progress"]
+    if duration > 0:
+        cmd += ["--duration", str(duration)]
+    return cmd
 
 
 def row_key(row):
@@ -295,13 +308,7 @@ def main():
             dataset = os.path.join(args.output, "sequences", name)
             gt = dataset
             run_name = name
-            cmd = [os.path.join(bin_dir, "lunar_render"), "--sequence", row["sequence"], "--output", dataset,
-                   "--width", str(row["size"]), "--height", str(row["size"]), "--sensors", row["sensors"],
-                   "--seed", str(row["seed"]), "--dem", row["dem"], "--placement-rank", str(row["placement_rank"]),
-                   "--sun-elevation", str(row["sun_elevation"]), "--sun-azimuth", str(row["sun_azimuth"]),
-                   "--sensor-seed", str(row["sensor_seed"]), "--no-progress"]
-            if args.duration > 0:
-                cmd += ["--duration", str(args.duration)]
+            cmd = render_command(row, bin_dir, dataset, args.duration)
             os.makedirs(os.path.dirname(dataset), exist_ok=True)
             rc, secs = run(cmd, dataset + ".render.log")
             if rc != 0:
@@ -418,7 +425,8 @@ def format_tables(results):
     timed = [r for r in results if r.get("stage_ms")]
     if timed:
         lines += ["", "Time per processed frame by stage, median / p99 in ms (vo_run, FrameResult::times: tracking = "
-                  "image pyramid, KLT, anchor refinement, replenishment detection, undistortion; motion = two-view or PnP + "
+                  "image pyramid, KLT, anchor refinement, replenishment detection, undistortion, of which pyramid, klt "
+                  "(forward and backward LK), refine (anchor refinement) and detect are parts; motion = two-view or PnP + "
                   "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
                   "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
                   "including any wait for it; total = the whole Pipeline::process() call). Wall clock on this "

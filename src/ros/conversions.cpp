@@ -20,7 +20,13 @@ ros::Time toStamp(const ros::Time& epoch, double dataset_time_s) {
   return epoch + ros::Duration().fromSec(dataset_time_s);
 }
 
-double toDatasetTime(const ros::Time& epoch, const ros::Time& stamp) { return (stamp - epoch).toSec(); }
+double secondsBetween(const ros::Time& later, const ros::Time& earlier) {
+  // toNSec() < 2^63 for every valid stamp (sec < 2^32), so the difference of the two as int64 is exact.
+  return 1e-9 *
+         static_cast<double>(static_cast<int64_t>(later.toNSec()) - static_cast<int64_t>(earlier.toNSec()));
+}
+
+double toDatasetTime(const ros::Time& epoch, const ros::Time& stamp) { return secondsBetween(stamp, epoch); }
 
 std_msgs::Header makeHeader(const ros::Time& stamp, const std::string& frame_id) {
   std_msgs::Header header;

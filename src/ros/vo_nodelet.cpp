@@ -45,6 +45,7 @@
 #include "planetary_vo/ros_io/sample_buffer.h"
 #include "planetary_vo/ros_io/status_reporter.h"
 #include "planetary_vo/ros_io/vo_conversions.h"
+#include "planetary_vo/vo/cpu_budget.h"
 #include "planetary_vo/vo/pipeline.h"
 
 namespace planetary_vo::ros_io {
@@ -181,6 +182,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       applyPendingConfig(&note);
       if (!pipeline_) {
         pipeline_ = makePipeline(config_, camera);
+        cpu_budget_ = std::make_unique<CpuBudget>(config_);
         imu_buffer_.restart();
         altimeter_buffer_.restart();
       } else if (camera != pipeline_->camera()) {
@@ -195,6 +197,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       const Clock::time_point process_start = Clock::now();
       result = pipeline_->process(t, gray);
       process_time = Clock::now() - process_start;
+      applyCpuBudget(std::chrono::duration<double, std::milli>(process_time).count(), &note);
     } catch (const std::invalid_argument& e) {  // documented: the pipeline's state is unchanged
       return reject(std::string("pipeline rejected the image: ") + e.what(), header);
     } catch (const std::exception& e) {
@@ -522,18 +525,18 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   /// *note says what happened; else why the image is refused.
   std::string checkStamp(const ros::Time& stamp, std::string* note, bool* restart_tracking) {
     const double limit_s = stampJumpLimit();
-    const double since_last_s = (stamp - *last_stamp_).toSec();
+    const double since_last_s = secondsBetween(stamp, *last_stamp_);
     if (since_last_s > 0.0 && since_last_s <= limit_s) {  // the timeline goes on
       if (suspect_stamp_) {
-        const double off_s = (*suspect_stamp_ - *last_stamp_).toSec();
+        const double off_s = secondsBetween(*suspect_stamp_, *last_stamp_);
         *note = "the image stamped " + std::to_string(std::abs(off_s)) + " s " +
                 (off_s > 0.0 ? "ahead" : "back") + " was an outlier: rejected, the stream goes on";
         suspect_stamp_.reset();
       }
       return "";
     }
-    if (suspect_stamp_ && stamp > *suspect_stamp_ && (stamp - *suspect_stamp_).toSec() <= limit_s) {
-      const double jump_s = (*suspect_stamp_ - *last_stamp_).toSec();
+    if (suspect_stamp_ && stamp > *suspect_stamp_ && secondsBetween(stamp, *suspect_stamp_) <= limit_s) {
+      const double jump_s = secondsBetween(*suspect_stamp_, *last_stamp_);
       suspect_stamp_.reset();
       NODELET_WARN_STREAM("image stamps jumped " << (jump_s > 0.0 ? "forward" : "back") << " by "
                                                  << std::abs(jump_s) << " s, confirmed by the next image");
@@ -577,7 +580,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   std::string frameGapNote(const ros::Time& stamp) {
     std::string note;
     if (last_stamp_) {
-      const double dt = (stamp - *last_stamp_).toSec();
+      const double dt = secondsBetween(stamp, *last_stamp_);
       if (period_s_ > 0.0 && dt > params_.max_frame_gap_factor * period_s_)
         note = ros_io::frameGapNote(dt, period_s_);
       else
@@ -672,11 +675,36 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       }
     }
     config_ = *pending;
+    cpu_budget_ = std::make_unique<CpuBudget>(config_);  // the new configuration is its step 0
     const std::string what = "reconfigured: num_features " + std::to_string(config_.detector.num_features) +
                              ", motion model " + toString(config_.motion.model) + ", bundle adjustment " +
                              (config_.bundle_adjustment.enabled ? "on" : "off");
     NODELET_INFO_STREAM(what << (pipeline_ ? " (in place, the trajectory continues)" : ""));
     if (pipeline_) *note += (note->empty() ? "" : "; ") + what;
+  }
+
+  /// After a frame: the CPU budget (cpu_budget section, vo/cpu_budget.h) may make the tracking one step
+  /// lighter, or undo a step, in the running pipeline (in place, like a reconfigure). config_ stays the
+  /// configured one.
+  void applyCpuBudget(double process_ms, std::string* note) {
+    if (!cpu_budget_ || !cpu_budget_->enabled()) return;
+    const std::optional<VoConfig> next = cpu_budget_->observe(process_ms);
+    if (!next) return;
+    try {
+      pipeline_->reconfigure(*next);     // only runtime fields differ (test_cpu_budget)
+    } catch (const std::exception& e) {  // not expected; the pipeline is unchanged when it throws
+      const std::string why = std::string("cpu budget step refused, budget off: ") + e.what();
+      NODELET_ERROR_STREAM(why);
+      cpu_budget_.reset();
+      *note += (note->empty() ? "" : "; ") + why;
+      return;
+    }
+    const std::string what = "cpu budget: median frame time " + std::to_string(cpu_budget_->lastMedianMs()) +
+                             " ms against " + std::to_string(config_.cpu_budget.frame_budget_ms) +
+                             " ms, step " + std::to_string(cpu_budget_->step()) + " (" +
+                             cpu_budget_->describe(cpu_budget_->step()) + ")";
+    NODELET_WARN_STREAM(what);
+    *note += (note->empty() ? "" : "; ") + what;
   }
 
   void reconfigureCb(VoReconfigureConfig& knobs, uint32_t level) {
@@ -714,6 +742,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   void resetBody(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
     // A fresh pipeline at the next image: no handed-over state survives a reset (a new one may be sent).
     pipeline_.reset();
+    cpu_budget_.reset();
     started_ = false;
     initial_state_applied_ = false;
     nav_active_ = have_nav_prev_ = false;
@@ -873,6 +902,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   VoConfig config_;
   std::string config_problem_;
   std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<CpuBudget> cpu_budget_;  ///< the degradation steps of config_ (off unless configured)
   std::unique_ptr<StatusReporter> reporter_;
 
   image_transport::CameraSubscriber camera_sub_;

@@ -129,6 +129,7 @@ PLANETARY_VO_CONFIG_EQ(BundleAdjustmentConfig, bundleAdjustmentFields)
 PLANETARY_VO_CONFIG_EQ(PipelineConfig, pipelineFields)
 PLANETARY_VO_CONFIG_EQ(AltimeterAidingConfig, altimeterFields)
 PLANETARY_VO_CONFIG_EQ(ImuAidingConfig, imuFields)
+PLANETARY_VO_CONFIG_EQ(CpuBudgetConfig, cpuBudgetFields)
 PLANETARY_VO_CONFIG_EQ(VoConfig, forEachField)
 #undef PLANETARY_VO_CONFIG_EQ
 

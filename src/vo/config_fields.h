@@ -216,6 +216,13 @@ void imuFields(C& c, V& v) {
   v("initial_velocity_sigma_mps", c.initial_velocity_sigma_mps, 1e-6, 1e4);
 }
 
+template <class C, class V>
+void cpuBudgetFields(C& c, V& v) {
+  v("frame_budget_ms", c.frame_budget_ms, 0.0, 1e5);
+  v("window_frames", c.window_frames, 1, 100000);
+  v("relax_ratio", c.relax_ratio, 0.05, 1.0);
+}
+
 /// Walks every section of VoConfig in file order.
 template <class Cfg, class V>
 void forEachField(Cfg& cfg, V& v) {
@@ -239,6 +246,8 @@ void forEachField(Cfg& cfg, V& v) {
   altimeterFields(cfg.altimeter, v);
   v.beginSection("imu");
   imuFields(cfg.imu, v);
+  v.beginSection("cpu_budget");
+  cpuBudgetFields(cfg.cpu_budget, v);
 }
 
 }  // namespace planetary_vo::config_detail

@@ -25,6 +25,22 @@ KltTracker::KltTracker(const TrackerConfig& config, const DetectorConfig& detect
       criteria_(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, config.max_iterations, config.epsilon_px),
       win_size_(config.window_size_px, config.window_size_px) {}
 
+void KltTracker::setConfig(const TrackerConfig& config) {
+  const bool pyramid_changed =
+      config.window_size_px != config_.window_size_px || config.pyramid_levels != config_.pyramid_levels;
+  config_ = config;
+  criteria_ = cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, config.max_iterations,
+                               config.epsilon_px);
+  win_size_ = cv::Size(config.window_size_px, config.window_size_px);
+  if (!config_.anchor_refinement) anchors_.clear();
+  // The previous pyramid was padded for the old window and has the old number of levels; LK asserts a padding
+  // of at least the window. Level 0 is the previous image itself.
+  if (pyramid_changed && has_previous_ && !prev_pyramid_.empty()) {
+    const cv::Mat previous = prev_pyramid_[0].clone();
+    buildPyramid(previous, &prev_pyramid_);
+  }
+}
+
 void KltTracker::reset() {
   tracks_.clear();
   anchors_.clear();
@@ -159,7 +175,8 @@ void KltTracker::fitAnchorWarps() {
   auto warpOf = [this](int64_t frame) -> AnchorWarp& {
     for (AnchorWarp& w : warps_)
       if (w.frame == frame) return w;
-    warps_.push_back(AnchorWarp{frame});
+    warps_.emplace_back();
+    warps_.back().frame = frame;
     return warps_.back();
   };
   for (size_t i = 0; i < anchors_.size(); ++i) {

@@ -201,6 +201,10 @@ void Pipeline::reconfigure(const VoConfig& next) {
   runtime.detector.num_features = next.detector.num_features;
   runtime.motion.model = next.motion.model;
   runtime.bundle_adjustment.enabled = next.bundle_adjustment.enabled;
+  runtime.tracker.window_size_px = next.tracker.window_size_px;
+  runtime.tracker.pyramid_levels = next.tracker.pyramid_levels;
+  runtime.tracker.anchor_refinement = next.tracker.anchor_refinement;
+  runtime.cpu_budget = next.cpu_budget;  // not read by the pipeline
   if (runtime != next) {
     FieldTexts have, want;
     config_detail::forEachField(runtime, have);
@@ -210,11 +214,14 @@ void Pipeline::reconfigure(const VoConfig& next) {
       if (have.fields[i].second != want.fields[i].second)
         names += (names.empty() ? "" : ", ") + want.fields[i].first + " (" + have.fields[i].second + " -> " +
                  want.fields[i].second + ")";
-    throw std::invalid_argument("Pipeline::reconfigure: " + names +
-                                ": not changeable at runtime (only detector.num_features, motion.model and "
-                                "bundle_adjustment.enabled are; a new Pipeline takes the rest)");
+    throw std::invalid_argument(
+        "Pipeline::reconfigure: " + names +
+        ": not changeable at runtime (only detector.num_features, tracker.window_size_px, "
+        "tracker.pyramid_levels, tracker.anchor_refinement, motion.model, "
+        "bundle_adjustment.enabled and cpu_budget are; a new Pipeline takes the rest)");
   }
   if (next.detector.num_features != config_.detector.num_features) tracker_.setDetectorConfig(next.detector);
+  if (!(next.tracker == config_.tracker)) tracker_.setConfig(next.tracker);
   if (next.motion.model != config_.motion.model) {
     Initializer initializer(next.motion, next.map, planeNormalPriorVector(next.motion.plane_normal_prior));
     if (prior_plane_normal_override_cam_) initializer.setPriorPlaneNormal(*prior_plane_normal_override_cam_);
@@ -370,6 +377,10 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
 void Pipeline::trackFeatures(const cv::Mat& gray, FrameResult* result) {
   const Clock::time_point start = Clock::now();
   const TrackingResult tracking = tracker_.track(gray);
+  result->times.pyramid_ms = tracking.pyramid_ms;
+  result->times.klt_ms = tracking.lk_ms;
+  result->times.refine_ms = tracking.refine_ms;
+  result->times.detect_ms = tracking.detect_ms;
   result->num_new_features = tracking.num_new;
   result->num_tracked = tracking.num_tracked;
 

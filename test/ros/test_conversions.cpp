@@ -34,6 +34,17 @@ TEST(Conversions, StampIsEpochPlusExactDatasetTime) {
   EXPECT_EQ(toStamp(ros::Time(0, 0), 1403636579.763555527), ros::Time(1403636579, 763555527));
 }
 
+TEST(Conversions, StampDifferencesBeyondTheDurationRangeAreDefined) {
+  // A stamp decades off (a corrupted or far-future header) against a normal one: ros::Time's difference
+  // throws ("Duration is out of dual 32-bit range"); the nodelet's stamp checks must get a number instead.
+  const ros::Time now(1700000000, 500000000), far(4294967295u, 999999999u), zero(0, 1);
+  EXPECT_THROW((far - zero).toSec(), std::runtime_error);
+  EXPECT_NEAR(secondsBetween(far, now), 4294967295.999999999 - 1700000000.5, 1e-6);
+  EXPECT_NEAR(secondsBetween(zero, far), -4294967295.999999998, 1e-6);
+  EXPECT_NEAR(toDatasetTime(now, far), secondsBetween(far, now), 0.0);
+  EXPECT_DOUBLE_EQ(secondsBetween(ros::Time(5, 250000000), ros::Time(4, 750000000)), 0.5);
+}
+
 TEST(Conversions, CameraInfoWithoutDistortion) {
   const PinholeCamera camera(1241, 376, 718.856, 718.856, 607.1928, 185.2157);
   const sensor_msgs::CameraInfo info = toCameraInfo(camera, makeHeader(ros::Time(5, 6), "camera_optical"));

@@ -19,6 +19,9 @@
 ///                                every frame tracked after the first, full scale confidence, and the scale
 ///                                of the part before the first change fitting every later step
 ///   ~node (string, "/vo")        the VO nodelet's name (its set_parameters service)
+///   ~cpu_budget_steps (int, 0)   vo_reconfigure.test runs the nodelet with a CPU budget it cannot meet
+///                                (cpu_budget/frame_budget_ms): its status must report the budget's steps
+///                                down to this one, the lightest, and never a refused step
 
 #include <algorithm>
 #include <cmath>
@@ -64,6 +67,7 @@ class VoEndToEndTest : public ::testing::Test {
     manager_ = pnh.param<std::string>("manager", "/vo_manager");
     player_ = pnh.param<std::string>("player", "/player");
     reconfigure_ = pnh.param("reconfigure", false);
+    cpu_budget_steps_ = pnh.param("cpu_budget_steps", 0);
     node_ = pnh.param<std::string>("node", "/vo");
     dataset_ = std::make_unique<Dataset>(Dataset::open(dataset_dir_));
     subs_.push_back(nh_.subscribe("vo/pose", 1000, &VoEndToEndTest::onPose, this));
@@ -187,6 +191,7 @@ class VoEndToEndTest : public ::testing::Test {
   ros::NodeHandle nh_;
   std::string dataset_dir_, world_frame_, camera_frame_, manager_, player_, node_;
   bool live_ = true, reconfigure_ = false;
+  int cpu_budget_steps_ = 0;
   double max_ate_percent_ = 5.0, timeout_s_ = 120.0;
   std::unique_ptr<Dataset> dataset_;
   std::vector<ros::Subscriber> subs_;
@@ -295,6 +300,18 @@ TEST_F(VoEndToEndTest, TracksTheRenderedDescent) {
               path_sizes_.size(), path_span_s, path_period_s,
               *std::max_element(path_sizes_.begin(), path_sizes_.end()), max_path);
 
+  if (cpu_budget_steps_ > 0) {
+    // The budget's steps went into the running pipeline (the checks below and above hold with them).
+    int steps = 0, lightest = 0;
+    for (const VoStatus& s : statuses_) {
+      EXPECT_EQ(s.message.find("cpu budget step refused"), std::string::npos) << s.message;
+      if (s.message.find("cpu budget:") != std::string::npos) ++steps;
+      if (s.message.find("step " + std::to_string(cpu_budget_steps_) + " (") != std::string::npos) ++lightest;
+    }
+    EXPECT_GE(steps, cpu_budget_steps_) << "the CPU budget's steps did not reach the pipeline";
+    EXPECT_GE(lightest, 1) << "never reached the lightest step, " << cpu_budget_steps_;
+    std::printf("cpu budget: %d steps reported, %d to the lightest\n", steps, lightest);
+  }
   if (!reconfigure_) return;
   // The knob changes went into the running pipeline: no re-initialisation (every status after the first
   // tracked one is TRACKING at full scale confidence), the changes were applied and none refused, and the

@@ -33,8 +33,12 @@ namespace planetary_vo::ros_io {
 /// Stamp of a dataset time: `epoch + t`, with t converted on its own (ros::Duration::fromSec) so that a
 /// dataset time of 0.1 s gives exactly 100000000 ns after the epoch, whatever the size of the epoch.
 ros::Time toStamp(const ros::Time& epoch, double dataset_time_s);
-/// Seconds of a stamp relative to `epoch` (the inverse of toStamp up to nanosecond rounding).
+/// Seconds of a stamp relative to `epoch` (the inverse of toStamp up to nanosecond rounding), for any two
+/// valid stamps (= secondsBetween(stamp, epoch)).
 double toDatasetTime(const ros::Time& epoch, const ros::Time& stamp);
+/// `later - earlier` in seconds, from the nanosecond counts: defined for any two valid stamps, where
+/// ros::Time's own difference throws beyond the 32-bit range of ros::Duration (a stamp decades off).
+double secondsBetween(const ros::Time& later, const ros::Time& earlier);
 
 std_msgs::Header makeHeader(const ros::Time& stamp, const std::string& frame_id);
 

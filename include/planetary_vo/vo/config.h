@@ -8,7 +8,8 @@
 /// TrackerConfig&)`); no stage sees YAML, rosparam or the whole VoConfig.
 ///
 /// YAML layout: one map per section, named as the VoConfig members (`detector:`, `tracker:`, `motion:`,
-/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`, `imu:`), each holding the
+/// `keyframe:`, `map:`, `pnp:`, `bundle_adjustment:`, `pipeline:`, `altimeter:`, `imu:`, `cpu_budget:`), each
+/// holding the
 /// keys named as the struct members. Loading lives in config_yaml.h.
 
 #include <stdexcept>
@@ -232,6 +233,18 @@ struct ImuAidingConfig {
   double initial_velocity_sigma_mps = 0.05;
 };
 
+/// CPU budget of a frame (issue 13, vo/cpu_budget.h): when the measured time of Pipeline::process() stays
+/// above the budget, the caller makes the tracking lighter step by step (fewer features, fewer LK pyramid
+/// levels, no anchor refinement, a smaller LK window) and undoes the steps when there is room again. The
+/// pipeline itself does not read this section; vo_run and the VO nodelet do. Off by default.
+struct CpuBudgetConfig {
+  double frame_budget_ms = 0.0;  ///< budget of one frame's process() call, ms; 0 = off
+  int window_frames = 20;        ///< processed frames whose median time decides one step
+  /// A step is undone when the median is below this fraction of the budget and the lighter step's measured
+  /// cost says the heavier one fits the budget (hysteresis: no step back and forth every window).
+  double relax_ratio = 0.6;
+};
+
 /// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).
 struct VoConfig {
   DetectorConfig detector;
@@ -244,6 +257,7 @@ struct VoConfig {
   PipelineConfig pipeline;
   AltimeterAidingConfig altimeter;
   ImuAidingConfig imu;
+  CpuBudgetConfig cpu_budget;
 
   /// Every out-of-range value and every inconsistent combination, one line each naming `section.key`.
   std::vector<std::string> validationErrors() const;
@@ -263,6 +277,7 @@ bool operator==(const BundleAdjustmentConfig& a, const BundleAdjustmentConfig& b
 bool operator==(const PipelineConfig& a, const PipelineConfig& b);
 bool operator==(const AltimeterAidingConfig& a, const AltimeterAidingConfig& b);
 bool operator==(const ImuAidingConfig& a, const ImuAidingConfig& b);
+bool operator==(const CpuBudgetConfig& a, const CpuBudgetConfig& b);
 bool operator==(const VoConfig& a, const VoConfig& b);
 inline bool operator!=(const VoConfig& a, const VoConfig& b) { return !(a == b); }
 

@@ -51,6 +51,10 @@ const char* toString(ScaleSource source);
 /// Wall-clock time spent per stage on this frame, in milliseconds.
 struct StageTimesMs {
   double tracking_ms = 0.0;  ///< image pyramid, KLT, anchor refinement, replenishment detection, undistortion
+  double pyramid_ms = 0.0;   ///< part of tracking_ms: building the new image's LK pyramid
+  double klt_ms = 0.0;       ///< part of tracking_ms: forward and backward LK
+  double refine_ms = 0.0;    ///< part of tracking_ms: anchor refinement of the tracks
+  double detect_ms = 0.0;    ///< part of tracking_ms: replenishment (or restart) detection
   double motion_ms =
       0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management

@@ -67,6 +67,11 @@ class KltTracker {
   /// A new detector for the next detections (replenishment, restart, first frame); the live tracks stay.
   void setDetectorConfig(const DetectorConfig& detector_config) { detector_ = GridDetector(detector_config); }
 
+  /// @brief A new tracker configuration for the next track() calls; the live tracks stay. A change of the LK
+  /// window or pyramid levels rebuilds the previous image's pyramid for them; anchor_refinement off drops the
+  /// anchors, on anchors the live tracks in the next image (CpuBudget's steps, Pipeline::reconfigure).
+  void setConfig(const TrackerConfig& config);
+
   const TrackerConfig& config() const { return config_; }
   const GridDetector& detector() const { return detector_; }
 

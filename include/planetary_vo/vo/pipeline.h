@@ -130,6 +130,9 @@ class Pipeline {
   /// continues without a jump and without a new scale. Runtime-changeable fields (every other field of
   /// `next` must equal config()):
   /// - detector.num_features: the budget of the next detections (replenishment, restart); live tracks stay.
+  /// - tracker.window_size_px, tracker.pyramid_levels, tracker.anchor_refinement: from the next frame on, for
+  ///   the live tracks too (KltTracker::setConfig; CpuBudget's steps).
+  /// - cpu_budget: not read by the pipeline (vo_run and the VO nodelet apply it).
   /// - motion.model: the two-view model of the next initialisation or recovery (map mode) or of the next
   ///   step (unit-step chain); a setPriorPlaneNormal() override is kept.
   /// - bundle_adjustment.enabled: off waits for a solve still in flight and applies it (it belongs to the

@@ -45,6 +45,7 @@
 #include "planetary_vo/eval/trajectory_metrics.h"
 #include "planetary_vo/terrain/hazard_mapper.h"
 #include "planetary_vo/vo/config_yaml.h"
+#include "planetary_vo/vo/cpu_budget.h"
 #include "planetary_vo/vo/pipeline.h"
 
 namespace {
@@ -66,7 +67,16 @@ struct Options {
   std::string hazard_config_path;
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
+  double cpu_budget_ms = -1.0;  ///< < 0: the configuration's cpu_budget.frame_budget_ms
+  double cpu_slowdown = 1.0;
 };
+
+/// A number > lo from text; false when malformed.
+bool parsePositive(const std::string& text, double lo, double* out) {
+  char* end = nullptr;
+  *out = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0' && std::isfinite(*out) && *out >= lo;
+}
 
 /// "X,Y,Z" -> vector; false when malformed.
 bool parseTriple(const std::string& text, Eigen::Vector3d* out) {
@@ -110,7 +120,13 @@ void usage(std::ostream& out) {
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
          "                    nothing else of the ground truth is used): poses in the dataset's world "
-         "frame\n";
+         "frame\n"
+         "  --cpu-budget MS   budget of one frame's processing (sets cpu_budget.frame_budget_ms; 0 = off):\n"
+         "                    above it the tracking gets lighter step by step (vo/cpu_budget.h); the steps\n"
+         "                    taken and the frames spent at each are printed\n"
+         "  --cpu-slowdown F  the budget sees every frame's time multiplied by F (>= 1): how the "
+         "degradation\n"
+         "                    path looks on a CPU F times slower than this one (default 1)\n";
 }
 
 bool parseArgs(int argc, char** argv, Options* options) {
@@ -146,6 +162,15 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!parseTriple(
               text, arg == "--initial-error-m" ? &options->initial_error_m : &options->initial_error_deg)) {
         std::cerr << "vo_run: " << arg << " needs X,Y,Z, got '" << text << "'\n";
+        return false;
+      }
+    } else if (arg == "--cpu-budget" || arg == "--cpu-slowdown") {
+      if (!value(&text)) return false;
+      const bool budget = arg == "--cpu-budget";
+      if (!parsePositive(text, budget ? 0.0 : 1.0,
+                         budget ? &options->cpu_budget_ms : &options->cpu_slowdown)) {
+        std::cerr << "vo_run: " << arg << " needs a number " << (budget ? ">= 0" : ">= 1") << ", got '"
+                  << text << "'\n";
         return false;
       }
     } else if (arg == "--output-covariance") {
@@ -205,9 +230,12 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    const VoConfig config = options.config_path.empty() ? VoConfig() : loadVoConfig(options.config_path);
+    VoConfig config = options.config_path.empty() ? VoConfig() : loadVoConfig(options.config_path);
+    if (options.cpu_budget_ms >= 0.0) config.cpu_budget.frame_budget_ms = options.cpu_budget_ms;
     const Dataset dataset = Dataset::open(options.dataset_dir);
     Pipeline pipeline(config, dataset.camera());
+    CpuBudget cpu_budget(config);
+    std::vector<int> frames_at_step(static_cast<size_t>(cpu_budget.numSteps()), 0);
     if (options.initial_state_from_groundtruth) {
       if (!dataset.hasGroundTruth())
         throw std::runtime_error("--initial-state-from-groundtruth: the dataset has no ground truth");
@@ -275,7 +303,8 @@ int main(int argc, char** argv) {
       hazard_mapper->setCamera(dataset.camera());
     }
     Trajectory trajectory;
-    std::vector<double> tracking_ms, motion_ms, mapping_ms, ba_ms, total_ms;
+    std::vector<double> tracking_ms, pyramid_ms, klt_ms, refine_ms, detect_ms, motion_ms, mapping_ms, ba_ms,
+        total_ms;
     std::array<int, 4> state_counts{};
     int keyframes = 0, processed = 0, max_map_points = 0;
     // Memory after the first tenth of the frames against the end shows whether the windowed map keeps it
@@ -305,10 +334,23 @@ int main(int argc, char** argv) {
       ++state_counts[static_cast<size_t>(r.state)];
       keyframes += r.is_keyframe ? 1 : 0;
       tracking_ms.push_back(r.times.tracking_ms);
+      pyramid_ms.push_back(r.times.pyramid_ms);
+      klt_ms.push_back(r.times.klt_ms);
+      refine_ms.push_back(r.times.refine_ms);
+      detect_ms.push_back(r.times.detect_ms);
       motion_ms.push_back(r.times.motion_ms);
       mapping_ms.push_back(r.times.mapping_ms);
       ba_ms.push_back(r.times.ba_ms);
       total_ms.push_back(r.times.total_ms);
+      ++frames_at_step[static_cast<size_t>(cpu_budget.step())];
+      if (const std::optional<VoConfig> next = cpu_budget.observe(r.times.total_ms * options.cpu_slowdown)) {
+        pipeline.reconfigure(*next);  // between two frames; tracks, map and trajectory are kept
+        if (!options.quiet)
+          std::printf("%scpu budget: frame %lld: median %.1f ms%s against %.1f ms: step %d (%s)\n",
+                      progress ? "\n" : "", static_cast<long long>(r.frame_index), cpu_budget.lastMedianMs(),
+                      options.cpu_slowdown != 1.0 ? " (scaled)" : "", config.cpu_budget.frame_budget_ms,
+                      cpu_budget.step(), cpu_budget.describe(cpu_budget.step()).c_str());
+      }
       if (frame_log.is_open())
         frame_log << r.frame_index << ' ' << std::fixed << std::setprecision(6) << r.timestamp_s << ' '
                   << toString(r.state) << ' ' << r.num_tracked << ' ' << r.num_new_features << ' '
@@ -382,8 +424,13 @@ int main(int argc, char** argv) {
                   dataset.camera().height(), toString(config.pipeline.trajectory_mode), processed, keyframes,
                   trajectory.size(), options.output_path.c_str());
       std::printf("%-10s %10s %10s\n", "stage", "median_ms", "p99_ms");
-      const std::array<std::pair<const char*, const std::vector<double>*>, 5> stages{
+      // The tracking stage's parts are indented below it (their medians need not add up to its median).
+      const std::array<std::pair<const char*, const std::vector<double>*>, 9> stages{
           {{"tracking", &tracking_ms},
+           {"  pyramid", &pyramid_ms},
+           {"  klt", &klt_ms},
+           {"  refine", &refine_ms},
+           {"  detect", &detect_ms},
            {"motion", &motion_ms},
            {"mapping", &mapping_ms},
            {"ba", &ba_ms},
@@ -391,6 +438,14 @@ int main(int argc, char** argv) {
       for (const auto& stage : stages)
         std::printf("%-10s %10.2f %10.2f\n", stage.first, quantile(*stage.second, 0.5),
                     quantile(*stage.second, 0.99));
+      if (cpu_budget.enabled()) {
+        std::printf("cpu budget %.1f ms per frame, frame times x%.2f; processed frames per step:",
+                    config.cpu_budget.frame_budget_ms, options.cpu_slowdown);
+        for (int k = 0; k < cpu_budget.numSteps(); ++k)
+          std::printf("%s %d (%s) %d", k ? "," : "", k, cpu_budget.describe(k).c_str(),
+                      frames_at_step[static_cast<size_t>(k)]);
+        std::printf("\n");
+      }
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
       if (config.altimeter.enabled || config.imu.enabled) {

@@ -153,6 +153,10 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.imu.initial_position_sigma_m, 2.0);
   EXPECT_DOUBLE_EQ(c.imu.initial_attitude_sigma_deg, 0.1);
   EXPECT_DOUBLE_EQ(c.imu.initial_velocity_sigma_mps, 0.2);
+
+  EXPECT_DOUBLE_EQ(c.cpu_budget.frame_budget_ms, 40.0);
+  EXPECT_EQ(c.cpu_budget.window_frames, 10);
+  EXPECT_DOUBLE_EQ(c.cpu_budget.relax_ratio, 0.5);
 }
 
 // A +z (nadir) prior by default picked the wrong homography decomposition at frame 1 of the KITTI
@@ -219,6 +223,12 @@ TEST(VoConfig, EachSectionTakesPartInEquality) {
   c = VoConfig();
   c.imu.initial_velocity_sigma_mps = 0.07;
   EXPECT_FALSE(c == defaults) << "imu, last key";
+  c = VoConfig();
+  c.cpu_budget = fixture.cpu_budget;
+  EXPECT_FALSE(c == defaults) << "cpu_budget";
+  c = VoConfig();
+  c.cpu_budget.relax_ratio = 0.7;
+  EXPECT_FALSE(c == defaults) << "cpu_budget, last key";
   // The last key of a section, in case a walker stops early.
   c = VoConfig();
   c.detector.compute_descriptors = true;

@@ -101,6 +101,31 @@ TEST(KltTracker, SmallRotationAndScaleAreRecovered) {
   expectAccurateTracking(A, 13, TrackerConfig(), 0.03);
 }
 
+TEST(KltTracker, AConfigChangeBetweenFramesAppliesToTheLiveTracks) {
+  // The CPU budget's steps (cpu_budget.h) change the LK window, levels and anchor refinement between frames.
+  // Going back from a light step (11 px, no pyramid) to the default, the previous image's pyramid must be
+  // rebuilt: LK takes its levels from the previous pyramid, and an 18 px motion needs them.
+  const ViewPair views = warpedPair(kSize, translation(15.3, -9.8), 12);
+  TrackerConfig light;
+  light.window_size_px = 11;
+  light.pyramid_levels = 0;
+  light.anchor_refinement = false;
+  KltTracker tracker{light, DetectorConfig()};
+  ASSERT_EQ(tracker.track(views.first).num_new, 300);
+  tracker.setConfig(TrackerConfig());
+  EXPECT_EQ(tracker.config(), TrackerConfig());
+  const TrackingResult second = tracker.track(views.second);
+  EXPECT_GE(second.num_tracked, 280) << "lk " << second.num_lost_lk << " border " << second.num_lost_border
+                                     << " fb " << second.num_lost_fb;
+  const ErrorStats e = trackingErrors(second.correspondences, views, true);
+  EXPECT_GE(e.count, 240);
+  EXPECT_LT(e.mean_px, 0.03);
+  // The anchors came back with the refinement: the tracks are refined against them from the next image on.
+  EXPECT_EQ(second.num_refined, 0);  // anchored in this image
+  const TrackingResult third = tracker.track(views.second);
+  EXPECT_GT(third.num_refined, 200);
+}
+
 /// Views of one plane-wave texture moving right and up by `shift_px[k]` in frame k (the image content of a
 /// turning camera), tracked with one pyramid level so that LK alone reaches only about 10 px on this texture.
 std::vector<int> trackedPerStep(bool predict_flow, const std::vector<double>& shift_px,

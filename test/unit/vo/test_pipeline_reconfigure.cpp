@@ -21,6 +21,7 @@
 
 #include "planar_descent.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
+#include "planetary_vo/vo/cpu_budget.h"
 #include "planetary_vo/vo/pipeline.h"
 
 namespace planetary_vo {
@@ -194,6 +195,33 @@ TEST(PipelineReconfigure, KnobsChangeInPlaceWithoutAJumpOrANewScale) {
   EXPECT_GE(adjusted_after, 1);
 }
 
+TEST(PipelineReconfigure, CpuBudgetStepsChangeInPlace) {
+  // Every step of the CPU budget's degradation path (lighter and lighter tracking, cpu_budget.h), three
+  // frames apart, then straight back to the base: window 11 -> 21 px needs the previous pyramid rebuilt with
+  // its larger padding (LK asserts it), and the anchors come back for the live tracks.
+  const VoConfig base = clipConfig();
+  const CpuBudget budget(base);
+  ASSERT_EQ(budget.numSteps(), 6);
+  std::vector<Change> steps;
+  for (int k = 1; k < budget.numSteps(); ++k) {
+    const VoConfig step = budget.config(k);
+    steps.push_back({17 + 3 * k, [step](VoConfig* c) { *c = step; }});
+  }
+  steps.push_back({45, [base](VoConfig* c) { *c = base; }});
+  const ClipRun run = runWithChanges(base, kFrames, steps, Apply::kInPlace);
+  const ::testing::AssertionResult check =
+      continuousWithoutScaleJump(run, 20, kMaxStepRatio, kMaxErrorPercent);
+  std::cout << "the CPU budget's five steps and back: " << check.message() << "\n";
+  EXPECT_TRUE(check);
+  // The lightest step really is lighter: no anchor refinement, and the smaller budget at replenishment.
+  for (const FrameResult& r : run.results) {
+    if (r.frame_index >= 33 && r.frame_index < 45) {
+      EXPECT_EQ(r.times.refine_ms, 0.0) << "frame " << r.frame_index;
+      EXPECT_LE(r.num_new_features, budget.config(5).detector.num_features) << "frame " << r.frame_index;
+    }
+  }
+}
+
 TEST(PipelineReconfigure, InlineBundleAdjustmentTogglesToo) {
   VoConfig config = clipConfig();
   config.bundle_adjustment.asynchronous = false;
@@ -284,7 +312,7 @@ TEST(PipelineReconfigure, RejectsOtherFieldsAndInvalidValuesLeavingThePipelineAs
     }
     EXPECT_EQ(pipeline.config(), before);
   };
-  expectRejected([](VoConfig* c) { c->tracker.window_size_px = 31; }, {"tracker.window_size_px"});
+  expectRejected([](VoConfig* c) { c->tracker.fb_max_error_px = 2.0; }, {"tracker.fb_max_error_px"});
   expectRejected(
       [](VoConfig* c) {
         c->map.window_keyframes = 12;

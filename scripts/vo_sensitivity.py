@@ -1,0 +1,332 @@
+#!/usr/bin/python3
+"""Sensitivity of the VO to its main parameters (issue 13; thesis 5.1 Phase 1): one parameter at a time.
+
+For every parameter in PARAMETERS, each of its values is set in the base configuration (all other parameters at
+their base values) and vo_run is run on every dataset of the chosen benchmark groups (the datasets of
+scripts/vo_benchmark.py, rendered by lunar_render the same way and cached, so the images are the benchmark's).
+Each trajectory is scored with vo_eval (Sim(3) ATE in % of the path). The summary gives, per parameter and
+sequence, the ATE of every value, the best value, and the worst ratio to the best over the range: a ratio above
+CLIFF_RATIO (2) is a cliff. A run that loses track (fewer than 90 % of the frames posed) or fails is a cliff too.
+
+  /usr/bin/python3 scripts/vo_sensitivity.py [--groups ideal512,kitti] [--params features,grid,...]
+        [--base-config config/default.yaml] [--jobs N] [--output output/sensitivity] [--write-docs docs/sensitivity]
+
+Files in --output: configs/*.yaml (one per setting), runs/SETTING/DATASET/{trajectory.txt,vo_run.log,eval.json},
+results.json, summary.md, plots/PARAMETER.png. A vo_run whose trajectory is newer than its configuration, dataset
+and binary is reused (--rerun to run everything again). The trajectories do not depend on timing (the asynchronous
+bundle adjustment is waited for at fixed points), so --jobs changes the wall time only; the per-frame times in
+the summary are measured with --jobs runs sharing the machine and are indicative only.
+"""
+import argparse
+import concurrent.futures
+import copy
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vo_benchmark as bench  # noqa: E402  (the benchmark's rows, dataset names, render call and log parser)
+
+ROOT = bench.ROOT
+CLIFF_RATIO = 2.0
+
+# name: (configuration keys set together, values, log x axis, what it is). The ranges are issue 13's.
+PARAMETERS = {
+    "features": (["detector.num_features"], [150, 300, 600, 1000, 2000], True,
+                 "feature budget of a full detection"),
+    "grid": (["detector.grid_cols", "detector.grid_rows"], [4, 6, 8, 12], False,
+             "detection grid, cells per side"),
+    "lk_window": (["tracker.window_size_px"], [11, 15, 21, 31], False, "LK window side, px"),
+    "lk_levels": (["tracker.pyramid_levels"], [1, 2, 3, 4], False, "LK pyramid levels above full resolution"),
+    "kf_parallax": (["keyframe.min_parallax_deg"], [1.0, 2.0, 3.0, 5.0, 8.0], False,
+                    "keyframe parallax, deg"),
+    "kf_track_ratio": (["keyframe.min_track_ratio"], [0.5, 0.7, 0.8, 0.9], False,
+                       "keyframe track ratio"),
+    "ba_window": (["map.window_keyframes", "bundle_adjustment.window_keyframes"], [5, 7, 10, 15], False,
+                  "local map and BA window, keyframes"),
+}
+
+
+def get_key(config, key):
+    section, name = key.split(".")
+    return config[section][name]
+
+
+def set_key(config, key, value):
+    section, name = key.split(".")
+    if section not in config or name not in config[section]:
+        raise KeyError(f"{key} is not in the base configuration")
+    config[section][name] = type(config[section][name])(value)
+
+
+def setting_name(param, value):
+    return f"{param}_{value:g}"
+
+
+def datasets(groups, output, data):
+    """(name, dataset dir, ground truth, row) of each benchmark dataset of the groups, monocular rows only."""
+    out = []
+    for row in bench.default_rows():
+        if row["group"] not in groups or row.get("metric"):
+            continue
+        if row["sequence"] == "kitti_clip_turn":
+            d = os.path.join(data, "kitti_clip_turn")
+            out.append(("kitti_clip_turn", d, os.path.join(d, "poses.txt"), row))
+        else:
+            name = bench.dataset_name(row, 0.0)
+            d = os.path.join(output, "sequences", name)
+            out.append((name, d, d, row))
+    return out
+
+
+def run_one(job):
+    """vo_run + vo_eval of one (setting, dataset); returns the result dict."""
+    setting, config_path, name, dataset, gt, bin_dir, run_dir, rerun = job
+    os.makedirs(run_dir, exist_ok=True)
+    traj = os.path.join(run_dir, "trajectory.txt")
+    log = os.path.join(run_dir, "vo_run.log")
+    eval_json = os.path.join(run_dir, "eval.json")
+    stamp = gt if name == "kitti_clip_turn" else os.path.join(dataset, "render_stamp.txt")
+    vo_run = os.path.join(bin_dir, "vo_run")
+    started = time.monotonic()
+    rc, reused = bench.run_vo([vo_run, "--dataset", dataset, "--config", config_path, "--output", traj], log, traj,
+                              [stamp, config_path, vo_run], rerun)
+    r = {"setting": setting, "dataset": name, "vo_run_rc": rc, "reused": reused, "coverage": 0.0,
+         "seconds": time.monotonic() - started}
+    r.update(bench.parse_vo_run_log(log))
+    if rc == 0 and bench.count_lines(traj) >= 3:
+        cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj, "--align", "sim3", "--json", eval_json]
+        if name == "kitti_clip_turn":
+            cmd += ["--up-axis", "-y", "--axes", "xyz"]
+        if bench.run(cmd, os.path.join(run_dir, "vo_eval.log"))[0] == 0:
+            with open(eval_json) as f:
+                r.update(bench.eval_metrics(json.load(f), None))
+    r["ok"] = r.get("ate_percent") is not None and r["coverage"] >= bench.MIN_COVERAGE
+    return r
+
+
+def analyse(results, params, names, base):
+    """Per parameter and dataset: ATE per value, best, worst ratio to the best, cliff."""
+    by = {(r["setting"], r["dataset"]): r for r in results}
+    table = {}
+    for p in params:
+        keys, values, _, _ = PARAMETERS[p]
+        default = get_key(base, keys[0])
+        per = {}
+        for name in names:
+            ates = []
+            for v in values:
+                r = by.get((setting_name(p, v), name))
+                ates.append(r["ate_percent"] if r and r["ok"] else None)
+            valid = [a for a in ates if a is not None]
+            best = min(valid) if valid else None
+            ratios = [(a / best if a is not None and best else math.inf) for a in ates]
+            worst = max(ratios)
+            worst_value = values[ratios.index(worst)]
+            per[name] = {"ate": ates, "best": best, "best_value": values[ates.index(best)] if best else None,
+                         "ratios": ratios, "worst_ratio": worst, "worst_value": worst_value,
+                         "cliff": worst > CLIFF_RATIO, "default_ratio": ratios[values.index(default)]
+                         if default in values else None}
+        table[p] = {"values": values, "default": default, "keys": keys, "per_dataset": per}
+    return table
+
+
+def fmt_ratio(x):
+    return "fail" if x == math.inf else f"{x:.2f}"
+
+
+def summary_markdown(table, names, args, results, wall_s):
+    lines = ["# Sensitivity of the VO to its main parameters", "",
+             f"Generated by `scripts/vo_sensitivity.py --groups {args.groups} --params {args.params} "
+             f"--base-config {os.path.relpath(args.base_config, ROOT)}` "
+             f"({len(results)} runs, {wall_s / 60:.0f} min wall with --jobs {args.jobs}).",
+             "One parameter at a time; all others at the base configuration's values. Cell: Sim(3) ATE in % of the "
+             "path (`vo_eval --align sim3`); *fail* = lost (< 90 % of frames posed) or no trajectory. "
+             f"Ratio = ATE / the best ATE of that parameter's range on that dataset; above {CLIFF_RATIO:g} is a "
+             "cliff. **Bold** = the base value.", ""]
+    lines += ["## Worst ratio to the best setting, per parameter and dataset", "",
+              "| parameter | range | " + " | ".join(names) + " | cliffs |",
+              "|---" * (len(names) + 3) + "|"]
+    for p, t in table.items():
+        cells = []
+        cliffs = 0
+        for n in names:
+            d = t["per_dataset"][n]
+            cell = fmt_ratio(d["worst_ratio"]) + f" @{d['worst_value']:g}"
+            if d["cliff"]:
+                cell = f"**{cell}**"
+                cliffs += 1
+            cells.append(cell)
+        rng = f"{t['values'][0]:g}-{t['values'][-1]:g}"
+        lines.append(f"| {p} | {rng} | " + " | ".join(cells) + f" | {cliffs} |")
+    lines.append("")
+    for p, t in table.items():
+        keys, values, _, what = PARAMETERS[p]
+        lines += [f"## {p}: {what} (`{'`, `'.join(keys)}`)", "", f"![{p}](plots/{p}.png)", "",
+                  "| dataset | " + " | ".join((f"**{v:g}**" if v == t["default"] else f"{v:g}") for v in values)
+                  + " | best | worst ratio |", "|---" * (len(values) + 3) + "|"]
+        for n in names:
+            d = t["per_dataset"][n]
+            cells = ["fail" if a is None else f"{a:.3f}" for a in d["ate"]]
+            best = "-" if d["best"] is None else f"{d['best_value']:g}"
+            lines.append(f"| {n} | " + " | ".join(cells) + f" | {best} | {fmt_ratio(d['worst_ratio'])} |")
+        # The per-frame cost of the whole vo_run frame (median over the datasets' medians) beside the accuracy.
+        by = {(r["setting"], r["dataset"]): r for r in results}
+        costs = []
+        for v in values:
+            meds = [by[(setting_name(p, v), n)].get("track_median_ms") for n in names
+                    if (setting_name(p, v), n) in by and by[(setting_name(p, v), n)].get("track_median_ms")]
+            costs.append(f"{sorted(meds)[len(meds) // 2]:.1f}" if meds else "-")
+        lines.append("| *frame time, median of the datasets' medians, ms* | " + " | ".join(costs) + " | | |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def plot(table, names, out_dir):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    os.makedirs(out_dir, exist_ok=True)
+    for p, t in table.items():
+        keys, values, logx, what = PARAMETERS[p]
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+        for n in names:
+            d = t["per_dataset"][n]
+            xs = [v for v, a in zip(values, d["ate"]) if a is not None]
+            ax1.plot(xs, [a for a in d["ate"] if a is not None], marker="o", label=n)
+            ax2.plot(xs, [r for r in d["ratios"] if r != math.inf], marker="o", label=n)
+            fails = [v for v, a in zip(values, d["ate"]) if a is None]
+            if fails:
+                ax2.plot(fails, [CLIFF_RATIO * 1.5] * len(fails), "kx", markersize=9)
+        for ax in (ax1, ax2):
+            ax.axvline(t["default"], color="grey", linestyle=":", label="base value")
+            ax.set_xlabel(what)
+            if logx:
+                ax.set_xscale("log")
+            ax.set_xticks(values)
+            ax.set_xticklabels([f"{v:g}" for v in values])
+            ax.grid(True, alpha=0.3)
+        ax1.set_yscale("log")
+        ax1.set_ylabel("Sim(3) ATE, % of path")
+        ax2.axhline(CLIFF_RATIO, color="red", linestyle="--", label=f"cliff ({CLIFF_RATIO:g}x best)")
+        ax2.set_ylabel("ATE / best ATE of the range (x = lost)")
+        ax2.legend(fontsize=7, loc="upper left")
+        fig.suptitle(f"{p}: {'/'.join(keys)}")
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, p + ".png"), dpi=80)
+        plt.close(fig)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=os.environ.get("PLANETARY_VO_BUILD", os.path.join(ROOT, "build")))
+    ap.add_argument("--data", default=os.environ.get("PLANETARY_VO_DATA", os.path.join(ROOT, "..", "shared", "data")))
+    ap.add_argument("--benchmark-output", default=os.path.join(ROOT, "output", "benchmark"),
+                    help="where the benchmark's datasets are (and are rendered when missing)")
+    ap.add_argument("--output", default=os.path.join(ROOT, "output", "sensitivity"))
+    ap.add_argument("--groups", default="ideal512,kitti", help="benchmark groups (vo_benchmark.py); monocular rows")
+    ap.add_argument("--sequences", default="", help="comma-separated dataset names to keep (default: all)")
+    ap.add_argument("--params", default=",".join(PARAMETERS), help="parameters (" + ", ".join(PARAMETERS) + ")")
+    ap.add_argument("--base-config", default=os.path.join(ROOT, "config", "default.yaml"))
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--rerun", action="store_true", help="run vo_run even where its trajectory is current")
+    ap.add_argument("--write-docs", default="", help="copy summary.md, results.json and plots/ to this folder")
+    args = ap.parse_args()
+
+    params = args.params.split(",")
+    for p in params:
+        if p not in PARAMETERS:
+            sys.exit(f"vo_sensitivity: unknown parameter {p} (known: {', '.join(PARAMETERS)})")
+    bin_dir = os.path.join(args.build, "devel", "lib", "planetary_vo")
+    for tool in ("lunar_render", "vo_run", "vo_eval"):
+        if not os.path.exists(os.path.join(bin_dir, tool)):
+            sys.exit(f"vo_sensitivity: {tool} not found in {bin_dir}: build first (bash scripts/demo.sh builds)")
+    with open(args.base_config) as f:
+        base = yaml.safe_load(f)
+    sets = datasets(args.groups.split(","), args.benchmark_output, args.data)
+    if args.sequences:
+        keep = set(args.sequences.split(","))
+        sets = [s for s in sets if s[0] in keep]
+    if not sets:
+        sys.exit("vo_sensitivity: no dataset in these groups")
+    started = time.monotonic()
+
+    # The datasets, rendered once (lunar_render skips an unchanged render).
+    for name, dataset, _, row in sets:
+        if name == "kitti_clip_turn":
+            continue
+        os.makedirs(os.path.dirname(dataset), exist_ok=True)
+        rc, secs = bench.run(bench.render_command(row, bin_dir, dataset, 0.0), dataset + ".render.log")
+        if rc != 0:
+            sys.exit(f"vo_sensitivity: rendering {name} failed, see {dataset}.render.log")
+
+    # One configuration per (parameter, value). Settings with the same configuration (every parameter's base
+    # value is the base configuration) are run once: the trajectories are deterministic.
+    config_dir = os.path.join(args.output, "configs")
+    os.makedirs(config_dir, exist_ok=True)
+    jobs = []
+    same_as = {}  # setting -> the setting whose runs it shares
+    by_text = {}
+    for p in params:
+        keys, values, _, _ = PARAMETERS[p]
+        for v in values:
+            config = copy.deepcopy(base)
+            for k in keys:
+                set_key(config, k, v)
+            setting = setting_name(p, v)
+            text = yaml.safe_dump(config, sort_keys=False)
+            if text in by_text:
+                same_as[setting] = by_text[text]
+                continue
+            by_text[text] = setting
+            path = os.path.join(config_dir, setting + ".yaml")
+            if not os.path.exists(path) or open(path).read() != text:
+                with open(path, "w") as f:
+                    f.write(text)
+            for name, dataset, gt, _ in sets:
+                jobs.append((setting, path, name, dataset, gt, bin_dir,
+                             os.path.join(args.output, "runs", setting, name), args.rerun))
+
+    results = []
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = [pool.submit(run_one, j) for j in jobs]
+        for i, fut in enumerate(concurrent.futures.as_completed(futures), 1):
+            r = fut.result()
+            results.append(r)
+            ate = "fail" if not r["ok"] else f"{r['ate_percent']:.3f} %"
+            took = "reused" if r["reused"] else f"{r['seconds']:.0f} s"
+            print(f"[{i}/{len(jobs)}] {r['setting']:<20} {r['dataset']:<32} ATE {ate:<10} "
+                  f"posed {r['coverage'] * 100:.0f} %  {took}"
+                  f"  elapsed {(time.monotonic() - started) / 60:.1f} min", flush=True)
+
+    for setting, shared in same_as.items():
+        results += [dict(r, setting=setting, shares_runs_of=shared) for r in results if r["setting"] == shared]
+    names = [s[0] for s in sets]
+    table = analyse(results, params, names, base)
+    wall = time.monotonic() - started
+    summary = summary_markdown(table, names, args, results, wall)
+    with open(os.path.join(args.output, "results.json"), "w") as f:
+        json.dump({"results": results, "analysis": table}, f, indent=1, default=str)
+    with open(os.path.join(args.output, "summary.md"), "w") as f:
+        f.write(summary)
+    plot(table, names, os.path.join(args.output, "plots"))
+    print(summary)
+    cliffs = sum(d["cliff"] for t in table.values() for d in t["per_dataset"].values())
+    print(f"vo_sensitivity: {len(results)} runs in {wall / 60:.1f} min; {cliffs} (parameter, dataset) pairs with a "
+          f"cliff (> {CLIFF_RATIO:g}x the best ATE of the range, or lost)")
+    if args.write_docs:
+        os.makedirs(args.write_docs, exist_ok=True)
+        for f in ("summary.md", "results.json"):
+            shutil.copy(os.path.join(args.output, f), args.write_docs)
+        shutil.copytree(os.path.join(args.output, "plots"), os.path.join(args.write_docs, "plots"),
+                        dirs_exist_ok=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,93 @@
+/// @file cpu_budget.cpp
+/// The degradation steps of the tracking and the controller that moves between them.
+
+#include "planetary_vo/vo/cpu_budget.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace planetary_vo {
+namespace {
+
+std::string describeAgainst(const VoConfig& base, const VoConfig& c) {
+  std::string what;
+  auto add = [&what](const std::string& s) { what += (what.empty() ? "" : ", ") + s; };
+  if (c.detector.num_features != base.detector.num_features)
+    add("num_features " + std::to_string(c.detector.num_features));
+  if (c.tracker.pyramid_levels != base.tracker.pyramid_levels)
+    add("pyramid_levels " + std::to_string(c.tracker.pyramid_levels));
+  if (c.tracker.anchor_refinement != base.tracker.anchor_refinement)
+    add(std::string("anchor_refinement ") + (c.tracker.anchor_refinement ? "on" : "off"));
+  if (c.tracker.window_size_px != base.tracker.window_size_px)
+    add("window_size_px " + std::to_string(c.tracker.window_size_px));
+  return what.empty() ? "base" : what;
+}
+
+double median(std::vector<double> v) {
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+}  // namespace
+
+CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
+  const int floor_features = std::max(1, base.tracker.min_tracked_features);
+  auto features = [&](double fraction) {
+    return std::max(std::min(floor_features, base.detector.num_features),
+                    static_cast<int>(std::lround(fraction * base.detector.num_features)));
+  };
+  auto window = [](int current, int at_most) { return std::min(current, at_most); };
+
+  std::vector<VoConfig> ladder{base};
+  VoConfig c = base;
+  c.detector.num_features = features(0.7);
+  ladder.push_back(c);
+  c.tracker.pyramid_levels = std::max(1, base.tracker.pyramid_levels - 1);
+  ladder.push_back(c);
+  c.tracker.anchor_refinement = false;
+  ladder.push_back(c);
+  c.detector.num_features = features(0.5);
+  c.tracker.window_size_px = window(c.tracker.window_size_px, 15);
+  ladder.push_back(c);
+  c.detector.num_features = std::min(floor_features, c.detector.num_features);
+  c.tracker.window_size_px = window(c.tracker.window_size_px, 11);
+  ladder.push_back(c);
+
+  for (const VoConfig& step : ladder) {
+    if (!steps_.empty() && step == steps_.back().config) continue;  // changes nothing here
+    steps_.push_back(Step{step, describeAgainst(base, step), 0.0});
+  }
+  window_ms_.reserve(static_cast<size_t>(std::max(1, base.cpu_budget.window_frames)));
+}
+
+std::optional<VoConfig> CpuBudget::observe(double frame_ms) {
+  if (!enabled() || !std::isfinite(frame_ms)) return std::nullopt;
+  window_ms_.push_back(frame_ms);
+  if (static_cast<int>(window_ms_.size()) < base_.cpu_budget.window_frames) return std::nullopt;
+  last_median_ms_ = median(window_ms_);
+  window_ms_.clear();
+  Step& here = steps_[static_cast<size_t>(step_)];
+  if (here.cost_ms <= 0.0) here.cost_ms = last_median_ms_;
+
+  const double budget = base_.cpu_budget.frame_budget_ms;
+  if (last_median_ms_ > budget && step_ + 1 < numSteps()) {
+    ++step_;
+    return steps_[static_cast<size_t>(step_)].config;
+  }
+  if (step_ > 0 && last_median_ms_ < base_.cpu_budget.relax_ratio * budget) {
+    // The heavier step's cost, as measured, scaled by how this step's cost changed since (the scene or the
+    // machine's load changed): undo only when that fits the budget.
+    const Step& heavier = steps_[static_cast<size_t>(step_ - 1)];
+    const double predicted =
+        heavier.cost_ms > 0.0 ? heavier.cost_ms * last_median_ms_ / here.cost_ms : last_median_ms_;
+    if (predicted <= budget) {
+      --step_;
+      steps_[static_cast<size_t>(step_)].cost_ms = 0.0;  // measured again on return
+      return steps_[static_cast<size_t>(step_)].config;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace planetary_vo
