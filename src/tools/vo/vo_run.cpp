@@ -69,6 +69,7 @@ struct Options {
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
   double cpu_budget_ms = -1.0;  ///< < 0: the configuration's cpu_budget.frame_budget_ms
   double cpu_slowdown = 1.0;
+  int cpu_budget_step = 0;  ///< run at this step of the CPU budget's ladder from the start
 };
 
 /// A number > lo from text; false when malformed.
@@ -126,7 +127,9 @@ void usage(std::ostream& out) {
          "                    taken and the frames spent at each are printed\n"
          "  --cpu-slowdown F  the budget sees every frame's time multiplied by F (>= 1): how the "
          "degradation\n"
-         "                    path looks on a CPU F times slower than this one (default 1)\n";
+         "                    path looks on a CPU F times slower than this one (default 1)\n"
+         "  --cpu-budget-step K  run with step K of that path from the first frame (0 = the configuration;\n"
+         "                    the steps are printed), without a budget: each step's cost and accuracy\n";
 }
 
 bool parseArgs(int argc, char** argv, Options* options) {
@@ -173,6 +176,15 @@ bool parseArgs(int argc, char** argv, Options* options) {
                   << text << "'\n";
         return false;
       }
+    } else if (arg == "--cpu-budget-step") {
+      if (!value(&text)) return false;
+      char* end = nullptr;
+      const long step = std::strtol(text.c_str(), &end, 10);
+      if (end == text.c_str() || *end != '\0' || step < 0 || step > 100) {
+        std::cerr << "vo_run: --cpu-budget-step needs an integer >= 0, got '" << text << "'\n";
+        return false;
+      }
+      options->cpu_budget_step = static_cast<int>(step);
     } else if (arg == "--output-covariance") {
       if (!value(&options->covariance_path)) return false;
     } else if (arg == "--output-terrain") {
@@ -232,6 +244,18 @@ int main(int argc, char** argv) {
   try {
     VoConfig config = options.config_path.empty() ? VoConfig() : loadVoConfig(options.config_path);
     if (options.cpu_budget_ms >= 0.0) config.cpu_budget.frame_budget_ms = options.cpu_budget_ms;
+    if (options.cpu_budget_step > 0) {
+      const CpuBudget ladder(config);
+      if (options.cpu_budget_step >= ladder.numSteps())
+        throw std::runtime_error("--cpu-budget-step " + std::to_string(options.cpu_budget_step) +
+                                 ": this configuration has steps 0 to " +
+                                 std::to_string(ladder.numSteps() - 1));
+      if (!options.quiet)
+        std::printf("cpu budget step %d of %d: %s\n", options.cpu_budget_step, ladder.numSteps() - 1,
+                    ladder.describe(options.cpu_budget_step).c_str());
+      config = ladder.config(options.cpu_budget_step);
+      config.cpu_budget.frame_budget_ms = 0.0;  // fixed at that step
+    }
     const Dataset dataset = Dataset::open(options.dataset_dir);
     Pipeline pipeline(config, dataset.camera());
     CpuBudget cpu_budget(config);
