@@ -34,3 +34,16 @@ set_tests_properties(campaign_statistics campaign_local campaign_slurm PROPERTIE
 
 # `cmake --build build --target tests` builds the tools the end-to-end tests run.
 add_dependencies(tests lunar_render vo_run vo_eval)
+
+# The sensitivity sweep (scripts/vo_sensitivity.py, docs/visual_core.md) on the VO rostests' short descent:
+#   sensitivity_tool     two parameters x four values with the real vo_run and vo_eval: one run per distinct
+#                        configuration, the tables (base value, worst ratio, cliff), the plots, a second
+#                        invocation reusing every run, unknown parameters and missing datasets refused
+if(VO_TEST_DATASET)
+  add_test(NAME sensitivity_tool
+           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
+                   PLANETARY_VO_TEST_DATASET=${VO_TEST_DATASET}
+                   SENSITIVITY_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/sensitivity_tool
+                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_sensitivity_tool.py)
+  set_tests_properties(sensitivity_tool PROPERTIES TIMEOUT 600)
+endif()
