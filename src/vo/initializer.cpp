@@ -157,14 +157,31 @@ std::vector<RelativeMotion> Initializer::motionHypotheses(const std::vector<cv::
       // The homography's decompositions compete only where the score says the views look planar; elsewhere
       // (a road plane in a street scene) a homography explains a subset of the points and its motion is not
       // to be trusted over a valid essential matrix, so it is only the fallback, as in estimateMotion().
-      if (selection.homography_chosen)
+      if (selection.homography_chosen && !second.valid && !second.ambiguous && !hypotheses.empty()) {
+        // The views look planar, but the homography failed a check of its own (typically its parallax just
+        // short of the threshold) while E passed. On a plane E has a twin, a different motion explaining the
+        // points as well; E's five-point solution may be either (approach_30deg, 1024 flight, 210 features
+        // without anchor refinement: E took the twin and a mirrored trajectory was tracked, Sim(3) ATE
+        // 19.7 %, as TRACKING). The homography's decompositions stand for both motions: they compete with E
+        // as rivals only (invalid: they cannot win), so that a twin E is refused until the parallax settles
+        // it.
+        for (const HomographyCandidate& c : second.homography_candidates) {
+          RelativeMotion m = fromTwoView(second);  // invalid, with the homography's reason
+          m.T_c2_c1_unit = Pose::Identity();
+          m.T_c2_c1_unit.linear() = c.R_c2_c1;
+          m.T_c2_c1_unit.translation() = c.t_c2_c1_unit;
+          hypotheses.push_back(m);
+        }
+      } else if (selection.homography_chosen) {
         addHomography(second);
-      else if (hypotheses.empty() && second.valid)
+      } else if (hypotheses.empty() && second.valid) {
         hypotheses.push_back(fromTwoView(second));
+      }
       break;
     }
   }
-  if (hypotheses.empty()) {
+  if (std::none_of(hypotheses.begin(), hypotheses.end(), [](const RelativeMotion& m) { return m.valid; })) {
+    hypotheses.clear();
     *reason = fromTwoView(first).reason;
     if (motion_.model == MotionModel::kAuto) *reason += "; " + fromTwoView(second).reason;
   }
@@ -212,6 +229,12 @@ Initialization Initializer::initialize(const std::vector<uint64_t>& track_ids,
             [](const Scored& a, const Scored& b) { return a.tri.num_valid > b.tri.num_valid; });
   const Scored& best = scored.front();
   init.motion = hypotheses[best.index];
+  if (!init.motion.valid) {  // a rival only (see motionHypotheses) explains the views best
+    init.reason = "a motion that failed its own checks (" + init.motion.reason + ") triangulates " +
+                  std::to_string(best.tri.num_valid) +
+                  " points, more than the valid one; waiting for more parallax";
+    return init;
+  }
   for (size_t k = 1; k < scored.size(); ++k) {
     const RelativeMotion& other = hypotheses[scored[k].index];
     if (!isDifferentMotion(init.motion.T_c2_c1_unit, other.T_c2_c1_unit)) continue;

@@ -398,7 +398,9 @@ TEST(Pipeline, BlackFramesAreRefusedAndTrackingContinuesWithoutAJump) {
     } else {
       EXPECT_FALSE(r.input_rejected) << "frame " << i << ": " << r.message;
     }
-    if (i >= blackout_end) EXPECT_TRUE(r.hasPoseEstimate()) << "frame " << i << ": " << r.message;
+    if (i >= blackout_end) {
+      EXPECT_TRUE(r.hasPoseEstimate()) << "frame " << i << ": " << r.message;
+    }
   }
   const StepsAndAte with = stepsAndAte(run);
   std::cout << "black frames " << blackout_begin << ".." << blackout_end - 1 << ": Sim(3) ATE "
