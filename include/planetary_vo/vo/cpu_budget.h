@@ -13,8 +13,8 @@
 ///   4. half the feature budget and an LK window of at most 15 px
 ///   5. tracker.min_tracked_features features and an 11 px window
 /// Steps that change nothing for the configuration at hand are left out. A lighter step changes how much
-/// work the tracking does, never the checks a pose must pass, so it never makes a bad pose look good: when
-/// too few features remain, the pipeline reports lost frames as always.
+/// work the tracking does, never the checks a pose must pass: when too few features remain, the pipeline
+/// reports lost frames as always.
 ///
 /// When the median is below cpu_budget.relax_ratio of the budget and the heavier step, at the cost measured
 /// when it was left (scaled by how the lighter one's cost has changed since), fits the budget, the step is
