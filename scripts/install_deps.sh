@@ -23,8 +23,8 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev libyaml-cpp-dev
   # glog: Ceres logs through it; vo_run sets its level
   libgoogle-glog-dev
-  # plots of the trajectory evaluator
-  python3-matplotlib python3-numpy
+  # plots of the trajectory evaluator; PyYAML for the sensitivity sweep's configurations (scripts/vo_sensitivity.py)
+  python3-matplotlib python3-numpy python3-yaml
   # GUI parts: rviz, headless X for screenshots in CI
   rviz xvfb xauth imagemagick
   # Monte Carlo campaigns on Slurm (scripts/vo_campaign.py --scheduler slurm; the campaign_slurm test starts a
