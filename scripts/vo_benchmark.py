@@ -196,6 +196,11 @@ def render_command(row, bin_dir, dataset, duration):
     return cmd
 
 
+def eval_frame_args(sequence):
+    """vo_eval's frame options for a dataset: KITTI's camera frame has y down (the Lunar datasets are z up)."""
+    return ["--up-axis", "-y", "--axes", "xyz"] if sequence == "kitti_clip_turn" else []
+
+
 def row_key(row):
     return json.dumps({k: row.get(k) for k in ("group", "sequence", "size", "sensors", "dem", "seed",
                                                  "placement_rank", "sun_elevation", "sun_azimuth", "sensor_seed",
@@ -340,8 +345,7 @@ def main():
             sim3 = first = None
             if rc == 0 and count_lines(traj) >= 3:
                 common = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj]
-                if row["sequence"] == "kitti_clip_turn":
-                    common += ["--up-axis", "-y", "--axes", "xyz"]
+                common += eval_frame_args(row["sequence"])
                 sim3_json, first_json = os.path.join(out, "eval_sim3.json"), os.path.join(out, "eval_first.json")
                 cmd = common + ["--align", "sim3", "--json", sim3_json]
                 if args.write_docs:

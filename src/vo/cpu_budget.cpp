@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "planetary_vo/geometry/median.h"
+
 namespace planetary_vo {
 namespace {
 
@@ -21,12 +23,6 @@ std::string describeAgainst(const VoConfig& base, const VoConfig& c) {
   if (c.tracker.window_size_px != base.tracker.window_size_px)
     add("window_size_px " + std::to_string(c.tracker.window_size_px));
   return what.empty() ? "base" : what;
-}
-
-double median(std::vector<double> v) {
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
 }
 
 }  // namespace
@@ -65,7 +61,7 @@ std::optional<VoConfig> CpuBudget::observe(double frame_ms) {
   if (!enabled() || !std::isfinite(frame_ms)) return std::nullopt;
   window_ms_.push_back(frame_ms);
   if (static_cast<int>(window_ms_.size()) < base_.cpu_budget.window_frames) return std::nullopt;
-  last_median_ms_ = median(window_ms_);
+  last_median_ms_ = medianInPlace(&window_ms_);
   window_ms_.clear();
   Step& here = steps_[static_cast<size_t>(step_)];
   if (here.cost_ms <= 0.0) here.cost_ms = last_median_ms_;

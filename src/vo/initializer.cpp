@@ -114,21 +114,25 @@ std::vector<RelativeMotion> Initializer::motionHypotheses(const std::vector<cv::
   // counts cannot tell them apart: triangulation below may (the wrong one puts many points behind a camera
   // or at a parallax too small to triangulate). A decomposition chosen by the plane-normal prior stays alone:
   // the prior is the caller's knowledge.
-  auto addHomography = [&](const TwoViewResult& r) {
-    if (r.valid && (r.resolved_by_prior || r.homography_candidates.size() < 2)) {
-      hypotheses.push_back(fromTwoView(r));
-      return;
-    }
-    if (!r.valid && !r.ambiguous) return;
+  // Each decomposition of a homography as a hypothesis; `valid` false makes it a rival only (it cannot win,
+  // see initialize()), keeping the homography's reason.
+  auto addCandidates = [&](const TwoViewResult& r, bool valid) {
     for (const HomographyCandidate& c : r.homography_candidates) {
       RelativeMotion m = fromTwoView(r);
-      m.valid = true;
-      m.reason.clear();
+      m.valid = valid;
+      if (valid) m.reason.clear();
       m.T_c2_c1_unit = Pose::Identity();
       m.T_c2_c1_unit.linear() = c.R_c2_c1;
       m.T_c2_c1_unit.translation() = c.t_c2_c1_unit;
       hypotheses.push_back(m);
     }
+  };
+  auto addHomography = [&](const TwoViewResult& r) {
+    if (r.valid && (r.resolved_by_prior || r.homography_candidates.size() < 2)) {
+      hypotheses.push_back(fromTwoView(r));
+      return;
+    }
+    if (r.valid || r.ambiguous) addCandidates(r, true);
   };
   if (px1.size() != px2.size() || static_cast<int>(px1.size()) < std::max(8, motion_.min_inliers)) {
     *reason = "too few correspondences (" + std::to_string(px1.size()) + ")";
@@ -165,13 +169,7 @@ std::vector<RelativeMotion> Initializer::motionHypotheses(const std::vector<cv::
         // 19.7 %, as TRACKING). The homography's decompositions stand for both motions: they compete with E
         // as rivals only (invalid: they cannot win), so that a twin E is refused until the parallax settles
         // it.
-        for (const HomographyCandidate& c : second.homography_candidates) {
-          RelativeMotion m = fromTwoView(second);  // invalid, with the homography's reason
-          m.T_c2_c1_unit = Pose::Identity();
-          m.T_c2_c1_unit.linear() = c.R_c2_c1;
-          m.T_c2_c1_unit.translation() = c.t_c2_c1_unit;
-          hypotheses.push_back(m);
-        }
+        addCandidates(second, false);
       } else if (selection.homography_chosen) {
         addHomography(second);
       } else if (hypotheses.empty() && second.valid) {

@@ -20,10 +20,9 @@ double msSince(int64 start_ticks) {
 }  // namespace
 
 KltTracker::KltTracker(const TrackerConfig& config, const DetectorConfig& detector_config)
-    : config_(config),
-      detector_(detector_config),
-      criteria_(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, config.max_iterations, config.epsilon_px),
-      win_size_(config.window_size_px, config.window_size_px) {}
+    : config_(config), detector_(detector_config) {
+  setConfig(config);  // the LK criteria and window (no previous image yet: nothing else to do)
+}
 
 void KltTracker::setConfig(const TrackerConfig& config) {
   const bool pyramid_changed =

@@ -72,8 +72,8 @@ struct Options {
   int cpu_budget_step = 0;  ///< run at this step of the CPU budget's ladder from the start
 };
 
-/// A number > lo from text; false when malformed.
-bool parsePositive(const std::string& text, double lo, double* out) {
+/// A finite number >= lo from text; false when malformed.
+bool parseAtLeast(const std::string& text, double lo, double* out) {
   char* end = nullptr;
   *out = std::strtod(text.c_str(), &end);
   return end != text.c_str() && *end == '\0' && std::isfinite(*out) && *out >= lo;
@@ -170,8 +170,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
     } else if (arg == "--cpu-budget" || arg == "--cpu-slowdown") {
       if (!value(&text)) return false;
       const bool budget = arg == "--cpu-budget";
-      if (!parsePositive(text, budget ? 0.0 : 1.0,
-                         budget ? &options->cpu_budget_ms : &options->cpu_slowdown)) {
+      if (!parseAtLeast(text, budget ? 0.0 : 1.0,
+                        budget ? &options->cpu_budget_ms : &options->cpu_slowdown)) {
         std::cerr << "vo_run: " << arg << " needs a number " << (budget ? ">= 0" : ">= 1") << ", got '"
                   << text << "'\n";
         return false;
