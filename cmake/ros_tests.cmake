@@ -1,6 +1,7 @@
 # Tests of the ROS layer, included by the top CMakeLists.txt inside if(CATKIN_ENABLE_TESTING).
 #
 #   ros_test_conversions   gtest, no master: core types <-> messages
+#   ros_test_containment   gtest, no master: the exception containment of every callback (ros_io/containment.h)
 #   ros_test_player_core   gtest, no master: the player stream (KITTI clip + synthetic planetary_vo dataset with
 #                          IMU/altimeter), looping, start index, epoch, bag writer + rosbag C++ read-back
 #   rostests (test/ros/*.test with the gtest node test_player_node):
@@ -15,6 +16,12 @@ catkin_add_gtest(ros_test_conversions test/ros/test_conversions.cpp)
 if(TARGET ros_test_conversions)
   target_link_libraries(ros_test_conversions planetary_vo_ros GTest::gtest_main)
   planetary_vo_ros_target(ros_test_conversions)
+endif()
+
+catkin_add_gtest(ros_test_containment test/ros/test_containment.cpp)
+if(TARGET ros_test_containment)
+  target_link_libraries(ros_test_containment planetary_vo_ros GTest::gtest_main)
+  planetary_vo_ros_target(ros_test_containment)
 endif()
 
 catkin_add_gtest(ros_test_player_core test/ros/test_player_core.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})

@@ -69,24 +69,35 @@ bool PinholeCamera::isValid(std::string* why) const {
   if (!std::isfinite(cx_) || !std::isfinite(cy_)) return fail("principal point is not finite");
   // Inside the image, pixel edges included (pixel centres are at integer coordinates).
   if (cx_ < -0.5 || cx_ > width_px_ - 0.5 || cy_ < -0.5 || cy_ > height_px_ - 0.5)
-    return fail("principal point (" + std::to_string(cx_) + ", " + std::to_string(cy_) + ") px is outside the " +
-                std::to_string(width_px_) + "x" + std::to_string(height_px_) + " image");
+    return fail("principal point (" + std::to_string(cx_) + ", " + std::to_string(cy_) +
+                ") px is outside the " + std::to_string(width_px_) + "x" + std::to_string(height_px_) +
+                " image");
   const double fov_x_deg = 2.0 * std::atan(0.5 * width_px_ / fx_) * 180.0 / M_PI;
   const double fov_y_deg = 2.0 * std::atan(0.5 * height_px_ / fy_) * 180.0 / M_PI;
   for (double fov : {fov_x_deg, fov_y_deg})
     if (!(fov >= kMinFieldOfViewDeg && fov <= kMaxFieldOfViewDeg))
       return fail("focal length (fx " + std::to_string(fx_) + ", fy " + std::to_string(fy_) +
-                  " px) gives a field of view of " + std::to_string(fov_x_deg) + " x " + std::to_string(fov_y_deg) +
-                  " deg, outside the plausible " + std::to_string(kMinFieldOfViewDeg) + " - " +
-                  std::to_string(kMaxFieldOfViewDeg) + " deg");
+                  " px) gives a field of view of " + std::to_string(fov_x_deg) + " x " +
+                  std::to_string(fov_y_deg) + " deg, outside the plausible " +
+                  std::to_string(kMinFieldOfViewDeg) + " - " + std::to_string(kMaxFieldOfViewDeg) + " deg");
   for (double d : distortion_)
     if (!std::isfinite(d)) return fail("distortion coefficient is not finite");
-  if (distortion_model_.empty()) return true;
+  if (distortion_model_.empty()) {
+    // Coefficients without a model cannot be applied; ignoring them would track on a distorted image as if
+    // it were ideal.
+    for (double d : distortion_)
+      if (d != 0.0)
+        return fail(
+            "non-zero distortion coefficients without a distortion model (accepted: plumb_bob, "
+            "rational_polynomial, equidistant; zeros or none for an ideal camera)");
+    return true;
+  }
   const size_t needed = coefficientCount(distortion_model_);
   if (needed == 0)
     return fail("unsupported distortion model '" + distortion_model_ +
                 "' (accepted: plumb_bob, rational_polynomial, equidistant)");
-  // No coefficients at all is an ideal camera (ROS sends plumb_bob with D = []); otherwise exactly the model's.
+  // No coefficients at all is an ideal camera (ROS sends plumb_bob with D = []); otherwise exactly the
+  // model's.
   if (!distortion_.empty() && distortion_.size() != needed)
     return fail(distortion_model_ + " distortion needs " + std::to_string(needed) + " coefficients, got " +
                 std::to_string(distortion_.size()));
@@ -128,17 +139,19 @@ bool PinholeCamera::distortionInvertible(std::string* why) const {
     if (reached && (r_corner > kMaxRadiusRatio * r || r > kMaxRadiusRatio * r_corner)) {
       if (why)
         *why = distortion_model_ + " distortion changes the radius of the image corner from " +
-               std::to_string(r * std::max(fx_, fy_)) + " to " + std::to_string(r_corner * std::max(fx_, fy_)) +
-               " px: not a plausible field of view";
+               std::to_string(r * std::max(fx_, fy_)) + " to " +
+               std::to_string(r_corner * std::max(fx_, fy_)) + " px: not a plausible field of view";
       return false;
     }
     if (!reached) {
       if (why)
-        *why = distortion_model_ + " distortion is not invertible over the image: the radial mapping towards "
-               "the corner (" + std::to_string(int(corner.x())) + ", " + std::to_string(int(corner.y())) +
+        *why = distortion_model_ +
+               " distortion is not invertible over the image: the radial mapping towards "
+               "the corner (" +
+               std::to_string(int(corner.x())) + ", " + std::to_string(int(corner.y())) +
                ") turns back or saturates at " + std::to_string(r_distorted * std::max(fx_, fy_)) +
-               " px from the principal point, before the corner at " + std::to_string(r_corner * std::max(fx_, fy_)) +
-               " px";
+               " px from the principal point, before the corner at " +
+               std::to_string(r_corner * std::max(fx_, fy_)) + " px";
       return false;
     }
   }

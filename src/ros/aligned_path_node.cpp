@@ -42,6 +42,7 @@
 #include <std_srvs/Trigger.h>
 
 #include "planetary_vo/eval/trajectory_alignment.h"
+#include "planetary_vo/ros_io/containment.h"
 #include "planetary_vo/ros_io/conversions.h"
 
 namespace planetary_vo::ros_io {
@@ -134,16 +135,15 @@ class AlignedPathNode {
   }
 
  private:
-  /// No exception leaves a callback (a NaN pose, a failed alignment, an allocation): it is logged, the message
-  /// dropped, the node continues.
+  /// No exception leaves a callback (a NaN pose, a failed alignment, an allocation): it is logged, the
+  /// message dropped, the node continues.
   template <class Body>
   void contained(const char* where, Body&& body) {
-    try {
-      body();
-    } catch (const std::exception& e) {
-      ROS_ERROR_STREAM_THROTTLE(5, "aligned_path_node: " << where << " failed: " << e.what() << " (ignored)");
-    } catch (...) {
-      ROS_ERROR_STREAM_THROTTLE(5, "aligned_path_node: " << where << " failed: unknown exception (ignored)");
+    if (const std::optional<std::string> why = ros_io::runContained(std::forward<Body>(body))) {
+      try {
+        ROS_ERROR_STREAM_THROTTLE(5, "aligned_path_node: " << where << " failed: " << *why << " (ignored)");
+      } catch (...) {
+      }
     }
   }
 

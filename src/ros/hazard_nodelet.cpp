@@ -40,6 +40,7 @@
 #include "planetary_vo/LandingSites.h"
 #include "planetary_vo/VoMapEvents.h"
 #include "planetary_vo/VoStatus.h"
+#include "planetary_vo/ros_io/containment.h"
 #include "planetary_vo/ros_io/conversions.h"
 #include "planetary_vo/ros_io/hazard_conversions.h"
 #include "planetary_vo/ros_io/map_event_conversions.h"
@@ -85,7 +86,7 @@ class HazardNodelet : public nodelet::Nodelet {
   }
 
   void eventsCb(const VoMapEvents::ConstPtr& msg) {
-    try {
+    const std::optional<std::string> why = ros_io::runContained([&] {
       cv::Mat keyframe_image;
       const MapEvents events = fromMsg(*msg, ros::Time(0), &keyframe_image);
       if (frame_id_.empty()) frame_id_ = msg->header.frame_id;
@@ -97,15 +98,12 @@ class HazardNodelet : public nodelet::Nodelet {
       if (update.densified) ++status_.keyframes_densified;
       if (msg->header.stamp > events_stamp_) events_stamp_ = msg->header.stamp;
       dirty_ = true;
-    } catch (const std::exception& e) {
-      reject(std::string("vo/map_events: ") + e.what());
-    } catch (...) {
-      reject("vo/map_events: unknown exception");
-    }
+    });
+    if (why) reject("vo/map_events", *why);
   }
 
   void infoCb(const sensor_msgs::CameraInfo::ConstPtr& info) {
-    try {
+    const std::optional<std::string> why = ros_io::runContained([&] {
       if (last_info_ && last_info_->K == info->K && last_info_->D == info->D &&
           last_info_->width == info->width && last_info_->height == info->height &&
           last_info_->distortion_model == info->distortion_model)
@@ -113,11 +111,8 @@ class HazardNodelet : public nodelet::Nodelet {
       mapper_->setCamera(fromCameraInfo(*info));
       last_info_ = *info;
       NODELET_INFO_STREAM("camera " << info->width << "x" << info->height << " for the densifier");
-    } catch (const std::exception& e) {
-      reject(std::string("camera/camera_info: ") + e.what());
-    } catch (...) {
-      reject("camera/camera_info: unknown exception");
-    }
+    });
+    if (why) reject("camera/camera_info", *why);
   }
 
   void voStatusCb(const VoStatus::ConstPtr& msg) {
@@ -125,21 +120,14 @@ class HazardNodelet : public nodelet::Nodelet {
   }
 
   void timerCb(const ros::WallTimerEvent&) {
-    try {
+    const std::optional<std::string> why = ros_io::runContained([&] {
       if (dirty_)
         publishProducts();
       else if (nav_stamp_ > products_stamp_)
         products_stamp_ = nav_stamp_;  // nothing new since: the products are current up to there too
-    } catch (const std::exception& e) {
-      reject(std::string("computing the products: ") + e.what());
-    } catch (...) {
-      reject("computing the products: unknown exception");
-    }
-    try {
-      publishStatus();
-    } catch (const std::exception& e) {
-      NODELET_ERROR_STREAM_THROTTLE(1.0, "hazard/status not published: " << e.what());
-    }
+    });
+    if (why) reject("computing the products", *why);
+    publishStatus();
   }
 
   void publishProducts() {
@@ -194,11 +182,12 @@ class HazardNodelet : public nodelet::Nodelet {
     }
   }
 
-  void reject(const std::string& why) noexcept {
+  /// "<where>: <why>" into the status and the log; never throws.
+  void reject(const char* where, const std::string& why) noexcept {
     ++status_.inputs_rejected;
     try {
-      status_.message = why;
-      NODELET_ERROR_STREAM_THROTTLE(1.0, why);
+      status_.message = std::string(where) + ": " + why;
+      NODELET_ERROR_STREAM_THROTTLE(1.0, status_.message);
     } catch (...) {
     }
     publishStatus();

@@ -39,6 +39,7 @@
 
 #include "planetary_vo/VoReconfigureConfig.h"
 #include "planetary_vo/VoStatus.h"
+#include "planetary_vo/ros_io/containment.h"
 #include "planetary_vo/ros_io/conversions.h"
 #include "planetary_vo/ros_io/map_event_conversions.h"
 #include "planetary_vo/ros_io/ros_params.h"
@@ -118,17 +119,10 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   /// every nodelet it holds). `header` non-null: the frame is rejected (BAD_INPUT on its stamp).
   template <class Body>
   void contained(const char* where, const std_msgs::Header* header, Body&& body) {
-    std::string why;
+    const std::optional<std::string> why = ros_io::runContained(std::forward<Body>(body));
+    if (!why) return;
     try {
-      body();
-      return;
-    } catch (const std::exception& e) {
-      why = e.what();
-    } catch (...) {
-      why = "unknown exception";
-    }
-    try {
-      const std::string what = std::string(where) + " failed: " + why;
+      const std::string what = std::string(where) + " failed: " + *why;
       NODELET_ERROR_STREAM_THROTTLE(5, what);
       if (header) {
         reject(what + " (frame rejected, the node continues)", *header);

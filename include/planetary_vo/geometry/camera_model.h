@@ -45,8 +45,9 @@ class PinholeCamera {
   /// Usable by the geometry: positive size; finite positive focal lengths giving a field of view within
   /// [kMinFieldOfViewDeg, kMaxFieldOfViewDeg] on both axes; principal point inside the image (pixel edges
   /// included); a known distortion model with exactly its number of finite coefficients (plumb_bob 5,
-  /// rational_polynomial 8, equidistant 4; none at all = no distortion); and a distortion that is invertible
-  /// over the image (distortionInvertible()). On failure, `why` (if given) says what is wrong.
+  /// rational_polynomial 8, equidistant 4; none at all = no distortion; non-zero coefficients with no model
+  /// are refused, not ignored); and a distortion that is invertible over the image (distortionInvertible()).
+  /// On failure, `why` (if given) says what is wrong.
   bool isValid(std::string* why = nullptr) const;
   /// Whether the distortion maps the ideal radius strictly increasingly onto the measured radius all the way
   /// to each image corner, so that every pixel of the image has one ideal pixel; `why` says where not.

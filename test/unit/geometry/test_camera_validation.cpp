@@ -1,7 +1,7 @@
-/// PinholeCamera::isValid() rejects every camera the geometry cannot use safely (issue 12, fault containment):
-/// a distortion vector of the wrong length for its model (cv::undistortPoints asserts on it), a principal
-/// point outside the image, a focal length outside a plausible field of view, and a distortion that folds
-/// back (not invertible) before the image corners. The reason names the problem.
+/// PinholeCamera::isValid() rejects every camera the geometry cannot use safely (issue 12, fault
+/// containment): a distortion vector of the wrong length for its model (cv::undistortPoints asserts on it), a
+/// principal point outside the image, a focal length outside a plausible field of view, and a distortion that
+/// folds back (not invertible) before the image corners. The reason names the problem.
 
 #include <string>
 #include <vector>
@@ -40,7 +40,8 @@ PinholeCamera withIntrinsics(double fx, double fy, double cx, double cy) {
 
 TEST(CameraValidation, DistortionLengthPerModel) {
   EXPECT_TRUE(accepted(withDistortion("plumb_bob", {-0.04, 0.01, 4e-4, -3e-4, -0.002})));
-  EXPECT_TRUE(accepted(withDistortion("rational_polynomial", {0.25, -0.08, 2e-4, 1e-4, 0.01, 0.3, -0.05, 0.02})));
+  EXPECT_TRUE(
+      accepted(withDistortion("rational_polynomial", {0.25, -0.08, 2e-4, 1e-4, 0.01, 0.3, -0.05, 0.02})));
   const PinholeCamera wide = PinholeCamera::fromFieldOfView(640, 480, 90.0);
   EXPECT_TRUE(accepted(withDistortion("equidistant", {-0.01, 0.003, -0.0008, 0.0001}, wide)));
   // No coefficients: an ideal camera whatever the model says (ROS sends plumb_bob with D = []).
@@ -60,6 +61,19 @@ TEST(CameraValidation, DistortionLengthPerModel) {
                          "equidistant distortion needs 4 coefficients"))
         << n;
   EXPECT_TRUE(rejected(withDistortion("fisheye_xyz", {0.1, 0, 0, 0}), "unsupported distortion model"));
+}
+
+TEST(CameraValidation, CoefficientsWithoutAModelAreRefusedNotIgnored) {
+  // "" and "none" are an ideal camera only when D says so too: coefficients the camera cannot apply would
+  // leave the tracks on a distorted image treated as ideal.
+  for (const char* model : {"", "none"}) {
+    EXPECT_TRUE(accepted(withDistortion(model, {}))) << model;
+    EXPECT_TRUE(accepted(withDistortion(model, {0.0, 0.0, 0.0, 0.0, 0.0}))) << model;
+    EXPECT_TRUE(rejected(withDistortion(model, {-0.04, 0.01, 4e-4, -3e-4, -0.002}),
+                         "non-zero distortion coefficients without a distortion model"))
+        << model;
+    EXPECT_TRUE(rejected(withDistortion(model, {0.001}), "without a distortion model")) << model;
+  }
 }
 
 TEST(CameraValidation, PrincipalPointInsideTheImage) {
