@@ -1,8 +1,8 @@
 /// gtest node of the AGNC rostest (hazard_end_to_end.test): the player streams a rendered Lunar descent and
 /// hands the initial state over; the VO nodelet (config/lunar_fused.yaml) and the hazard nodelet run in one
 /// manager. Checks what hazard detection hands on:
-///   - hazard/map is metric, covers the ground the camera saw, and its elevation under the camera at the last
-///     image agrees with the truth (camera height minus the true altitude above the terrain, from the
+///   - hazard/map is metric, covers the ground the camera saw, and its elevation under the camera along the
+///     whole descent agrees with the truth (camera height minus the true altitude above the terrain, from the
 ///     dataset's groundtruth_altimeter.txt: ground truth used only here, by the test);
 ///   - hazard/occupancy has the map's geometry and exactly its known cells;
 ///   - hazard/landing_sites is published with the map, and hazard/status reaches the last image (the
@@ -10,9 +10,10 @@
 ///   - a malformed vo/map_events is rejected with a reason on hazard/status and the nodelet goes on applying
 ///     the next, valid one.
 ///
-/// Private parameters: ~dataset (string), ~max_elevation_error_m (double, 3: 0.5 % of the 650 m range, below
-/// what a 1 % scale error or a wrong datum gives; measured 0.0-0.2 m before the anchor refinement of the VO's
-/// tracks and 1.4-2.1 m with it, 7 runs each: see docs/visual_core.md),
+/// Private parameters: ~dataset (string); ~max_elevation_rms_m (double, 3) and ~max_elevation_bias_m (double,
+/// 1.5): the RMS and the mean of the elevation error at the nadir cells of every image (0.5 % and 0.25 % of
+/// the 650 m range; a 1 % scale error or a wrong datum gives more than 6 m). Measured offline on this clip
+/// with the same configuration (vo_run --output-terrain, docs/visual_core.md): RMS 1.85 m, mean -0.44 m;
 /// ~min_cells_known (int, 200), ~manager, ~player ("/agnc_manager", "/player"), ~timeout (double, 90).
 
 #include <algorithm>
@@ -64,7 +65,8 @@ class HazardNodeTest : public ::testing::Test {
   void SetUp() override {
     ros::NodeHandle pnh("~");
     ASSERT_TRUE(pnh.getParam("dataset", dataset_dir_));
-    max_elevation_error_m_ = pnh.param("max_elevation_error_m", 3.0);
+    max_elevation_rms_m_ = pnh.param("max_elevation_rms_m", 3.0);
+    max_elevation_bias_m_ = pnh.param("max_elevation_bias_m", 1.5);
     min_cells_known_ = pnh.param("min_cells_known", 200);
     timeout_s_ = pnh.param("timeout", 90.0);
     manager_ = pnh.param<std::string>("manager", "/agnc_manager");
@@ -114,7 +116,7 @@ class HazardNodeTest : public ::testing::Test {
 
   ros::NodeHandle nh_;
   std::string dataset_dir_, manager_, player_;
-  double max_elevation_error_m_ = 3.0, timeout_s_ = 90.0;
+  double max_elevation_rms_m_ = 3.0, max_elevation_bias_m_ = 1.5, timeout_s_ = 90.0;
   int min_cells_known_ = 200;
   std::unique_ptr<Dataset> dataset_;
   ros::Time epoch_;
@@ -162,18 +164,29 @@ TEST_F(HazardNodeTest, TheHazardMapOfTheDescentAndMalformedEventsRejected) {
   EXPECT_EQ(known, map.cells_known);
   EXPECT_GE(known, min_cells_known_);
 
-  // The elevation under the camera at the last image against the truth.
-  const geometry_msgs::PoseStamped& last = ground_truth_.back();
-  const double t_last = toDatasetTime(epoch_, last.header.stamp);
-  const double true_ground_z = last.pose.position.z - trueAltitudeAt(dataset_dir_, t_last);
-  int col = 0, row = 0;
-  ASSERT_TRUE(g.cellAt(last.pose.position.x, last.pose.position.y, &col, &row))
-      << "the camera's nadir is outside the hazard map";
-  const float z_est = elevation.at<float>(row, col);
-  std::printf("hazard: elevation under the camera at t = %.1f s: %.2f m, truth %.2f m (error %+.2f m)\n",
-              t_last, z_est, true_ground_z, z_est - true_ground_z);
-  ASSERT_TRUE(std::isfinite(z_est)) << "no elevation under the camera";
-  EXPECT_LT(std::abs(z_est - true_ground_z), max_elevation_error_m_);
+  // The elevation under the camera against the truth, at every image's nadir cell (the whole track the map
+  // covers, not one cell: a single 10 m cell of this map is off by up to ~3 m either way while the track's
+  // mean error is a fraction of that).
+  std::vector<double> errors_m;
+  for (const geometry_msgs::PoseStamped& pose : ground_truth_) {
+    const double t = toDatasetTime(epoch_, pose.header.stamp);
+    const double true_ground_z = pose.pose.position.z - trueAltitudeAt(dataset_dir_, t);
+    int col = 0, row = 0;
+    if (!g.cellAt(pose.pose.position.x, pose.pose.position.y, &col, &row)) continue;
+    const float z_est = elevation.at<float>(row, col);
+    if (std::isfinite(z_est) && std::isfinite(true_ground_z)) errors_m.push_back(z_est - true_ground_z);
+  }
+  ASSERT_GE(errors_m.size(), ground_truth_.size() / 2)
+      << "the map misses most of the ground under the camera";
+  double sum = 0.0, sum_sq = 0.0;
+  for (double e : errors_m) sum += e, sum_sq += e * e;
+  const double mean_m = sum / errors_m.size(), rms_m = std::sqrt(sum_sq / errors_m.size());
+  std::printf(
+      "hazard: elevation under the camera at %zu of %zu images: error mean %+.2f m, RMS %.2f m, last %+.2f "
+      "m\n",
+      errors_m.size(), ground_truth_.size(), mean_m, rms_m, errors_m.back());
+  EXPECT_LT(rms_m, max_elevation_rms_m_);
+  EXPECT_LT(std::abs(mean_m), max_elevation_bias_m_);
 
   // hazard/occupancy: the map's geometry, known exactly where slope and roughness are.
   ASSERT_TRUE(occupancy_);
@@ -204,11 +217,12 @@ TEST_F(HazardNodeTest, TheHazardMapOfTheDescentAndMalformedEventsRejected) {
   // A malformed message (3 positions for 2 points) is rejected with a reason, and the next valid one is
   // applied: the nodelet lives on.
   const uint32_t applied_before = status.events_applied;
+  const ros::Time last_stamp = ground_truth_.back().header.stamp;
   lock.unlock();
   ASSERT_TRUE(waitFor([&] { return events_pub_.getNumSubscribers() > 0; }, 10.0));
   VoMapEvents bad;
   bad.header.frame_id = "world";
-  bad.header.stamp = last.header.stamp;
+  bad.header.stamp = last_stamp;
   bad.metric_scale = true;
   bad.added_ids = {uint64_t{1} << 62, (uint64_t{1} << 62) + 1};
   bad.added_positions = {1.0, 2.0, 3.0};
