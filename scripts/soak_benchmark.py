@@ -9,7 +9,9 @@ messages, never decoded), and for --minutes:
   - counts the images the player published (one ground_truth/pose per image) that got no vo/status (dropped:
     the VO fell behind and its input queue overflowed, or a message was lost),
   - scores every complete loop on its own: Sim(3) ATE (vo_eval) of the poses the status calls TRACKING or
-    RECOVERED against that loop's ground truth.
+    RECOVERED against that loop's ground truth, and the Sim(3) scale (metres per VO unit) of each loop, whose
+    loop-to-loop ratio shows whether the vision-only scale drifts across the losses.
+Ctrl-C stops the graph and scores the loops completed so far.
 Each loop starts with the camera jumping back to the start of the descent: a tracking loss the VO recovers from
 without a reset, so the loops also test that nothing accumulates across losses (memory, scale).
 
@@ -173,22 +175,27 @@ def main():
     memory = []  # (seconds since the first image, loops started, VmRSS kB)
     start = None
     end_time = None
-    while launch.poll() is None:
-        time.sleep(args.sample_s)
-        with lock:
-            n_loops = len(loops)
-        if n_loops == 0:
-            continue
-        if start is None:
-            start = time.monotonic()
-            end_time = start + 60.0 * args.minutes
-        kb = rss_kb(pid)
-        memory.append((time.monotonic() - start, n_loops, kb))
-        if len(memory) % max(1, int(300 / args.sample_s)) == 0:
-            print("soak: %.1f min, loop %d, VmRSS %.1f MB" % (memory[-1][0] / 60, n_loops, (kb or 0) / 1024.0),
-                  flush=True)
-        if time.monotonic() >= end_time:
-            break
+    interrupted = False
+    try:
+        while launch.poll() is None:
+            time.sleep(args.sample_s)
+            with lock:
+                n_loops = len(loops)
+            if n_loops == 0:
+                continue
+            if start is None:
+                start = time.monotonic()
+                end_time = start + 60.0 * args.minutes
+            kb = rss_kb(pid)
+            memory.append((time.monotonic() - start, n_loops, kb))
+            if len(memory) % max(1, int(300 / args.sample_s)) == 0:
+                print("soak: %.1f min, loop %d, VmRSS %.1f MB" % (memory[-1][0] / 60, n_loops, (kb or 0) / 1024.0),
+                      flush=True)
+            if time.monotonic() >= end_time:
+                break
+    except KeyboardInterrupt:  # Ctrl-C: stop the graph and score the loops completed so far
+        interrupted = True
+        print("soak: interrupted; stopping the graph and scoring the complete loops", flush=True)
     alive = launch.poll() is None
     launch.send_signal(signal.SIGINT)
     try:
@@ -212,7 +219,7 @@ def main():
         estimated = [s for s in stamps if statuses.get(s) in (VoStatus.STATE_TRACKING, VoStatus.STATE_RECOVERED)
                      and s in poses]
         row = {"loop": k, "images": len(stamps), "dropped": len(stamps) - len(reported),
-               "estimated": len(estimated), "ate_percent": None}
+               "estimated": len(estimated), "ate_percent": None, "sim3_scale": None}
         if len(estimated) >= 10:
             gt_file, est_file, js = (os.path.join(tmp, n) for n in ("gt.tum", "est.tum", "eval.json"))
             with open(gt_file, "w") as f:
@@ -225,7 +232,10 @@ def main():
                                text=True)
             if r.returncode == 0:
                 with open(js) as f:
-                    row["ate_percent"] = json.load(f).get("ate_rmse_percent_of_path")
+                    report = json.load(f)
+                row["ate_percent"] = report.get("ate_rmse_percent_of_path")
+                # metres per VO unit in this loop: constant when the scale does not drift across the losses
+                row["sim3_scale"] = report.get("alignment", {}).get("scale")
         results.append(row)
 
     images = sum(r["images"] for r in results)
@@ -233,7 +243,8 @@ def main():
     ates = [r["ate_percent"] for r in results if r["ate_percent"] is not None]
     summary = {"dataset": dataset, "rate": args.rate, "minutes": args.minutes, "queue_size": args.queue_size,
                "config": args.config or "config/default.yaml", "loops": results, "memory": memory,
-               "raw_messages": raw_counts, "tracking_image_subscribed": not args.no_images}
+               "raw_messages": raw_counts, "tracking_image_subscribed": not args.no_images,
+               "interrupted": interrupted}
     with open(os.path.join(out_dir, "soak.json"), "w") as f:
         json.dump(summary, f, indent=1)
     print("soak: %d complete loops of %s at %gx, %.1f min" % (len(results), os.path.basename(dataset), args.rate,
@@ -258,6 +269,12 @@ def main():
         within = sum(1 for a in ates if a <= 2.0 * first)
         print("ATE per loop (Sim(3), %% of path): first %.3f, median %.3f, worst %.3f; %d of %d loops within 2x of "
               "the first" % (first, statistics.median(ates), max(ates), within, len(ates)))
+    scales = [r["sim3_scale"] for r in results if r["sim3_scale"]]
+    if len(scales) >= 2:
+        ratios = [b / a for a, b in zip(scales, scales[1:])]
+        print("scale across the losses (Sim(3) metres per VO unit, loop by loop): first %.4g, last %.4g; "
+              "loop-to-loop ratio median %.3f, range %.3f-%.3f" %
+              (scales[0], scales[-1], statistics.median(ratios), min(ratios), max(ratios)))
     if times_ms:
         def pct(v, q):
             v = sorted(v)

@@ -140,6 +140,7 @@ void Pipeline::reset() {
   carried_covariance_.reset();
   failed_frames_ = 0;
   scale_confidence_ = 0.0;
+  first_map_depth_ = 0.0;
   frames_since_keyframe_ = 0;
   reference_.valid = false;
   last_good_.valid = false;
@@ -582,16 +583,18 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale_note = ", metric scale from the IMU baseline: " + std::to_string(scale) + " m" +
                  (fix.valid || !config_.altimeter.enabled ? "" : " (altimeter: " + fix.reason + ")");
   } else if (recovering) {
-    const ScaleBridge bridge =
-        bridgeScale(map_, reference_.T_world_cam, reference_.timestamp_s, timestamp_s_, init);
+    const ScaleBridge bridge = bridgeScale(map_, camera_, reference_.T_world_cam, reference_.timestamp_s,
+                                           timestamp_s_, init, first_map_depth_);
     scale = bridge.scale;
     scale_confidence_ *= bridge.confidence_factor;
-    scale_note = std::string(", scale bridged by ") + toString(bridge.source);
+    scale_note = std::string(", scale bridged by ") + toString(bridge.source) +
+                 (bridge.detail.empty() ? "" : " (" + bridge.detail + ")");
   } else {
     scale_confidence_ = 1.0;
     if (config_.altimeter.enabled) scale_note = ", no metric scale yet (" + fix.reason + ")";
   }
 
+  if (!recovering) first_map_depth_ = scale * init.median_depth;
   const Pose T_world_ref = reference_.T_world_cam;
   const Pose T_world_cur = T_world_ref * scaledInverse(init.motion.T_c2_c1_unit, scale);
   if (const std::optional<NavState> carried = newestInertialState()) carried_inertial_ = carried;
@@ -743,6 +746,7 @@ void Pipeline::tryMetricScaleAtKeyframe(FrameResult* result) {
   const Eigen::Vector3d centre = T_world_cam_initial_.translation();
   const double s = fix.metres_per_map_unit;
   map_.scaleAbout(centre, s);
+  first_map_depth_ *= s;
   auto scaled = [&](Pose T) {
     T.translation() = centre + s * (T.translation() - centre);
     return T;
@@ -940,6 +944,7 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
                                                                                -Eigen::Vector3d::UnitZ())
                                                 .toRotationMatrix();
   map_.transformAbout(centre, R, a.scale);
+  first_map_depth_ *= a.scale;
   auto moved = [&](Pose T) {
     T.translation() = centre + a.scale * R * (T.translation() - centre);
     T.linear() = R * T.linear();

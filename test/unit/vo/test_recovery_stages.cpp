@@ -11,6 +11,9 @@
 namespace planetary_vo {
 namespace {
 
+/// Sees the lost map's points (world +z is its optical axis at the identity attitude).
+const PinholeCamera kCamera = PinholeCamera::fromFieldOfView(640, 480, 90.0);
+
 Pose at(const Eigen::Vector3d& p) {
   Pose T = Pose::Identity();
   T.translation() = p;
@@ -59,10 +62,30 @@ TEST(ScaleBridge, SharedPointsFixTheScaleFirst) {
     init.points_c1.push_back(T_world_ref.inverse() * Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0) / 4.0);
   }
   init.median_depth = 17.0 / 4.0;
-  const ScaleBridge bridge = bridgeScale(map, T_world_ref, 1.0, 1.4, init);
+  const ScaleBridge bridge = bridgeScale(map, kCamera, T_world_ref, 1.0, 1.4, init, 0.0);
   EXPECT_EQ(bridge.source, ScaleBridgeSource::kSharedPoints);
   EXPECT_NEAR(bridge.scale, 4.0, 1e-9);
   EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.8);
+}
+
+TEST(ScaleBridge, SharedPointsOffTheirTracksDoNotBridge) {
+  // The same new map, but the reference pose is 5 units off sideways (the view jumped while the pose went on at
+  // constant velocity): from it the old points are 16 deg or more off their tracks' directions.
+  const Map map = lostMap(8);
+  const Pose T_world_true_ref = at({0, 0, 3});
+  Initialization init;
+  for (int i = 1; i <= 8; ++i) {
+    init.track_ids.push_back(static_cast<uint64_t>(i));
+    init.points_c1.push_back(T_world_true_ref.inverse() * Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0) / 4.0);
+  }
+  init.median_depth = 17.0 / 4.0;
+  const ScaleBridge off = bridgeScale(map, kCamera, at({5, 0, 3}), 1.0, 1.4, init, 0.0);
+  EXPECT_NE(off.source, ScaleBridgeSource::kSharedPoints);
+  EXPECT_NE(off.detail.find("8 of 8 shared points off their tracks"), std::string::npos) << off.detail;
+  // A small pose error (0.3 units sideways, about 1 deg) keeps them.
+  const ScaleBridge near = bridgeScale(map, kCamera, at({0.3, 0, 3}), 1.0, 1.4, init, 0.0);
+  EXPECT_EQ(near.source, ScaleBridgeSource::kSharedPoints);
+  EXPECT_NEAR(near.scale, 4.0, 0.1);
 }
 
 TEST(ScaleBridge, KeyframeSpeedWhenTooFewPointsAreShared) {
@@ -72,12 +95,40 @@ TEST(ScaleBridge, KeyframeSpeedWhenTooFewPointsAreShared) {
     init.track_ids.push_back(static_cast<uint64_t>(i));
     init.points_c1.push_back(Eigen::Vector3d(0, 0, 5));
   }
-  init.median_depth = 5.0;
-  // 3 units/s over a 0.5 s baseline.
-  const ScaleBridge bridge = bridgeScale(map, at({0, 0, 3}), 1.0, 1.5, init);
+  // 3 units/s over a 0.5 s baseline; the new map sees its scene 10 baselines deep, i.e. at 15 old units where
+  // the old map is seen at 17 from the same pose: consistent.
+  init.median_depth = 10.0;
+  const ScaleBridge bridge = bridgeScale(map, kCamera, at({0, 0, 3}), 1.0, 1.5, init, 50.0);
   EXPECT_EQ(bridge.source, ScaleBridgeSource::kKeyframeSpeed);
   EXPECT_NEAR(bridge.scale, 1.5, 1e-12);
   EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.5);
+  EXPECT_TRUE(bridge.detail.empty());
+}
+
+TEST(ScaleBridge, AViewThatJumpedTakesTheFirstMapsDepthNotTheOldSpeed) {
+  const Map map = lostMap(8);
+  Initialization init;
+  // The speed would put the new scene 40 baselines x 1.5 = 60 old units deep, where the old map is seen at 17
+  // from the same pose: the view jumped (the soak's loop back to the start). The first map was 50 units deep.
+  init.median_depth = 40.0;
+  ScaleBridge bridge = bridgeScale(map, kCamera, at({0, 0, 3}), 1.0, 1.5, init, 50.0);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kFirstMapDepth);
+  EXPECT_NEAR(bridge.scale, 50.0 / 40.0, 1e-12);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
+  EXPECT_NE(bridge.detail.find("the view jumped"), std::string::npos) << bridge.detail;
+  // Just inside the factor either way, the speed is kept.
+  for (double depth : {17.0 / 1.5 * 1.49, 17.0 / 1.5 / 1.49}) {
+    init.median_depth = depth;
+    EXPECT_EQ(bridgeScale(map, kCamera, at({0, 0, 3}), 1.0, 1.5, init, 50.0).source,
+              ScaleBridgeSource::kKeyframeSpeed)
+        << depth;
+  }
+  // Without a first map's depth, the old map's depth seen from the reference pose, with no confidence left.
+  init.median_depth = 40.0;
+  bridge = bridgeScale(map, kCamera, at({0, 0, 3}), 1.0, 1.5, init, 0.0);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kSceneDepth);
+  EXPECT_NEAR(bridge.scale, 17.0 / 40.0, 1e-12);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
 }
 
 TEST(ScaleBridge, SceneDepthWithoutAVelocityAndNothingWithoutAMap) {
@@ -86,16 +137,17 @@ TEST(ScaleBridge, SceneDepthWithoutAVelocityAndNothingWithoutAMap) {
   for (uint64_t t = 1; t <= 3; ++t) map.addPoint(t, Eigen::Vector3d(0, 0, 10.0 * t), {{kf, {1, 1}}});
   Initialization init;
   init.median_depth = 4.0;  // the old median depth 20 over the new 4
-  ScaleBridge bridge = bridgeScale(map, at({0, 0, 0}), 0.0, 0.5, init);
+  ScaleBridge bridge = bridgeScale(map, kCamera, at({0, 0, 0}), 0.0, 0.5, init, 0.0);
   EXPECT_EQ(bridge.source, ScaleBridgeSource::kSceneDepth);
   EXPECT_NEAR(bridge.scale, 5.0, 1e-12);
   EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.3);
 
-  bridge = bridgeScale(Map(), at({0, 0, 0}), 0.0, 0.5, init);
+  bridge = bridgeScale(Map(), kCamera, at({0, 0, 0}), 0.0, 0.5, init, 0.0);
   EXPECT_EQ(bridge.source, ScaleBridgeSource::kNone);
   EXPECT_DOUBLE_EQ(bridge.scale, 1.0);
   EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
   EXPECT_STREQ(toString(ScaleBridgeSource::kKeyframeSpeed), "keyframe speed");
+  EXPECT_STREQ(toString(ScaleBridgeSource::kFirstMapDepth), "first map's scene depth");
 }
 
 }  // namespace
