@@ -107,12 +107,14 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
   //    the scene depth that gives contradicts the old map's depth seen from the same pose.
   Eigen::Vector3d v_world_per_s;
   const double dt_new = t_cur_s - t_ref_s;
+  bool view_jumped = false;
   if (keyframeVelocity(old_map, &v_world_per_s) && dt_new > 0.0 && v_world_per_s.norm() > 0.0) {
     const double speed_scale = v_world_per_s.norm() * dt_new;
     const double implied_depth = speed_scale * init.median_depth;
     const bool contradicted =
         old_depth > 0.0 && new_depth_known &&
         (implied_depth > kMaxDepthJumpFactor * old_depth || old_depth > kMaxDepthJumpFactor * implied_depth);
+    view_jumped = contradicted;
     if (!contradicted) {
       bridge.scale = speed_scale;
       bridge.confidence_factor = kSpeedBridgeConfidence;
@@ -134,8 +136,7 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
   //    short loss).
   if (old_depth > 0.0 && new_depth_known) {
     bridge.scale = old_depth / init.median_depth;
-    bridge.confidence_factor =
-        bridge.detail.find("the view jumped") == std::string::npos ? kDepthBridgeConfidence : 0.0;
+    bridge.confidence_factor = view_jumped ? 0.0 : kDepthBridgeConfidence;
     bridge.source = ScaleBridgeSource::kSceneDepth;
   }
   return bridge;
