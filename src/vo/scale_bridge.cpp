@@ -111,11 +111,10 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
   if (keyframeVelocity(old_map, &v_world_per_s) && dt_new > 0.0 && v_world_per_s.norm() > 0.0) {
     const double speed_scale = v_world_per_s.norm() * dt_new;
     const double implied_depth = speed_scale * init.median_depth;
-    const bool contradicted =
+    view_jumped =
         old_depth > 0.0 && new_depth_known &&
         (implied_depth > kMaxDepthJumpFactor * old_depth || old_depth > kMaxDepthJumpFactor * implied_depth);
-    view_jumped = contradicted;
-    if (!contradicted) {
+    if (!view_jumped) {
       bridge.scale = speed_scale;
       bridge.confidence_factor = kSpeedBridgeConfidence;
       bridge.source = ScaleBridgeSource::kKeyframeSpeed;

@@ -52,16 +52,23 @@ TEST(MotionPrior, ConstantVelocityFromTheTwoNewestKeyframes) {
   EXPECT_TRUE(predictConstantVelocity(last, 1.0, one, 5.0).isApprox(last));
 }
 
-TEST(ScaleBridge, SharedPointsFixTheScaleFirst) {
-  const Map map = lostMap(8);
+/// A new map that triangulated lostMap(8)'s points again from a reference camera at world (0, 0, 3), at a
+/// quarter of their depth: its baseline is 4 old units long.
+Initialization initSeeingTheOldPointsAgain() {
   const Pose T_world_ref = at({0, 0, 3});
   Initialization init;
-  // The new map sees the old points at a quarter of their depth: its baseline is 4 old units long.
   for (int i = 1; i <= 8; ++i) {
     init.track_ids.push_back(static_cast<uint64_t>(i));
     init.points_c1.push_back(T_world_ref.inverse() * Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0) / 4.0);
   }
   init.median_depth = 17.0 / 4.0;
+  return init;
+}
+
+TEST(ScaleBridge, SharedPointsFixTheScaleFirst) {
+  const Map map = lostMap(8);
+  const Pose T_world_ref = at({0, 0, 3});
+  const Initialization init = initSeeingTheOldPointsAgain();
   const ScaleBridge bridge = bridgeScale(map, kCamera, T_world_ref, 1.0, 1.4, init, 0.0);
   EXPECT_EQ(bridge.source, ScaleBridgeSource::kSharedPoints);
   EXPECT_NEAR(bridge.scale, 4.0, 1e-9);
@@ -69,16 +76,10 @@ TEST(ScaleBridge, SharedPointsFixTheScaleFirst) {
 }
 
 TEST(ScaleBridge, SharedPointsOffTheirTracksDoNotBridge) {
-  // The same new map, but the reference pose is 5 units off sideways (the view jumped while the pose went on at
-  // constant velocity): from it the old points are 16 deg or more off their tracks' directions.
+  // The same new map, but the reference pose is 5 units off sideways (the view jumped while the pose went on
+  // at constant velocity): from it the old points are 16 deg or more off their tracks' directions.
   const Map map = lostMap(8);
-  const Pose T_world_true_ref = at({0, 0, 3});
-  Initialization init;
-  for (int i = 1; i <= 8; ++i) {
-    init.track_ids.push_back(static_cast<uint64_t>(i));
-    init.points_c1.push_back(T_world_true_ref.inverse() * Eigen::Vector3d(0.5 * i, -0.3 * i, 20.0) / 4.0);
-  }
-  init.median_depth = 17.0 / 4.0;
+  const Initialization init = initSeeingTheOldPointsAgain();
   const ScaleBridge off = bridgeScale(map, kCamera, at({5, 0, 3}), 1.0, 1.4, init, 0.0);
   EXPECT_NE(off.source, ScaleBridgeSource::kSharedPoints);
   EXPECT_NE(off.detail.find("8 of 8 shared points off their tracks"), std::string::npos) << off.detail;
