@@ -58,6 +58,28 @@ def rss_kb(pid):
     return None
 
 
+def lag_percentiles(stamps, published_wall, status_wall):
+    """Median and max over a loop's images of the VO's lag (status arrival minus image publication, ms), or with
+    published_wall None of the pipeline's own time per processed frame (VoStatus.total_ms)."""
+    if published_wall is None:
+        v = sorted(status_wall[s][1] for s in stamps if s in status_wall and status_wall[s][1] is not None)
+    else:
+        v = sorted(1e3 * (status_wall[s][0] - published_wall[s]) for s in stamps
+                   if s in status_wall and s in published_wall)
+    return [round(v[len(v) // 2], 2), round(v[-1], 2)] if v else None
+
+
+def cpu_times():
+    """Machine-wide jiffies from /proc/stat: (busy, steal, total). Steal is time the hypervisor gave to
+    other guests: a soak on a VM can fall behind because of its neighbours, not of the VO."""
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:]]
+    idle = v[3] + (v[4] if len(v) > 4 else 0)
+    steal = v[7] if len(v) > 7 else 0
+    total = sum(v[:8])
+    return total - idle - steal, steal, total
+
+
 def find_manager_pid(name, timeout_s=60.0):
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -68,12 +90,19 @@ def find_manager_pid(name, timeout_s=60.0):
     return None
 
 
-def tum_line(t, p):
+def compact(p):
+    """A PoseStamped as a tuple of floats (x y z qx qy qz qw): an hour at 10x keeps about 700,000 poses, which as
+    message objects make Python's garbage collector scan millions of objects and stall this subscriber (its lag
+    grew from 7 to 130 ms within 6 minutes); tuples of floats are not scanned."""
     o = p.pose.orientation
     x = p.pose.position
+    return (x.x, x.y, x.z, o.x, o.y, o.z, o.w)
+
+
+def tum_line(t, p):
     # 17 significant digits: after many losses a vision-only map moves by 1e-9 units per frame, below the 9
     # decimals of a usual TUM file (the first soak's loops 10+ were scored on quantised positions).
-    return "%.9f %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n" % (t, x.x, x.y, x.z, o.x, o.y, o.z, o.w)
+    return "%.9f %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n" % ((t,) + p)
 
 
 def main():
@@ -117,6 +146,11 @@ def main():
     lock = threading.Lock()
     loops = []  # each: {"gt": {stamp_ns: PoseStamped}, "start_ns": ...}
     statuses = {}  # stamp_ns -> state
+    received = {}  # stamp_ns -> the VO's count of images received so far (VoStatus.num_images)
+    published_wall = {}  # stamp_ns -> when this process got the image's ground_truth/pose (the player sends it
+    status_wall = {}  # with the image) and (when its vo/status came, the pipeline's ms): the VO's lag behind
+    notes = {}  # stamp_ns -> state, scale source and message of each recovery and scale-source change
+    last_scale_source = [None]
     poses = {}  # stamp_ns -> PoseStamped
     raw_counts = {}
     times_ms = []  # (pipeline, ROS layer) per processed frame
@@ -127,19 +161,25 @@ def main():
             if not loops or (abs(p.x - first_position[0]) < 1e-6 and abs(p.y - first_position[1]) < 1e-6 and
                              abs(p.z - first_position[2]) < 1e-6 and len(loops[-1]["gt"]) > 1):
                 loops.append({"gt": {}})
-            loops[-1]["gt"][m.header.stamp.to_nsec()] = m
+            loops[-1]["gt"][m.header.stamp.to_nsec()] = compact(m)
+            published_wall[m.header.stamp.to_nsec()] = time.monotonic()
 
     def on_status(m):
         if m.header.stamp.is_zero():
             return  # the watchdog's "no input" status
         with lock:
             statuses[m.header.stamp.to_nsec()] = m.state
+            received[m.header.stamp.to_nsec()] = m.num_images
+            status_wall[m.header.stamp.to_nsec()] = (time.monotonic(), m.total_ms if m.processed else None)
+            if m.state == VoStatus.STATE_RECOVERED or m.scale_source != last_scale_source[0]:
+                notes[m.header.stamp.to_nsec()] = "%s [%s] %s" % (m.state_name, m.scale_source, m.message)
+                last_scale_source[0] = m.scale_source
             if m.processed:
                 times_ms.append((m.total_ms, m.ros_overhead_ms))
 
     def on_pose(m):
         with lock:
-            poses[m.header.stamp.to_nsec()] = m
+            poses[m.header.stamp.to_nsec()] = compact(m)
 
     def counter(topic):
         def cb(_):
@@ -172,7 +212,8 @@ def main():
         launch.send_signal(signal.SIGINT)
         sys.exit("soak: no vo_manager process")
     print("soak: %s at %gx for %g min, vo_manager pid %d" % (dataset, args.rate, args.minutes, pid), flush=True)
-    memory = []  # (seconds since the first image, loops started, VmRSS kB)
+    memory = []  # (seconds since the first image, loops started, VmRSS kB, machine busy and steal fractions)
+    last_cpu = cpu_times()
     start = None
     end_time = None
     interrupted = False
@@ -187,7 +228,11 @@ def main():
                 start = time.monotonic()
                 end_time = start + 60.0 * args.minutes
             kb = rss_kb(pid)
-            memory.append((time.monotonic() - start, n_loops, kb))
+            cpu = cpu_times()
+            busy, steal = ((cpu[0] - last_cpu[0]) / max(1, cpu[2] - last_cpu[2]),
+                           (cpu[1] - last_cpu[1]) / max(1, cpu[2] - last_cpu[2]))
+            last_cpu = cpu
+            memory.append((time.monotonic() - start, n_loops, kb, round(busy, 4), round(steal, 4)))
             if len(memory) % max(1, int(300 / args.sample_s)) == 0:
                 print("soak: %.1f min, loop %d, VmRSS %.1f MB" % (memory[-1][0] / 60, n_loops, (kb or 0) / 1024.0),
                       flush=True)
@@ -212,14 +257,25 @@ def main():
         complete = loops[:-1]
     results = []
     tmp = tempfile.mkdtemp(prefix="soak_", dir=out_dir)
+    received_before = 0  # images the VO had received by the end of the previous loop
     for k, loop in enumerate(complete):
         stamps = sorted(loop["gt"])
         t0 = stamps[0]
         reported = [s for s in stamps if s in statuses]
         estimated = [s for s in stamps if statuses.get(s) in (VoStatus.STATE_TRACKING, VoStatus.STATE_RECOVERED)
                      and s in poses]
+        # Two ways an image ends without a status here: the VO never got it (its input queue overflowed: the
+        # VO fell behind; its own count num_images shows it), or it was processed but the status was lost on
+        # its way to this subscriber (the publisher's queue overflowed while this Python process lagged).
+        received_end = max([received[s] for s in reported] + [received_before])
+        not_received = max(0, len(stamps) - (received_end - received_before))
+        received_before = received_end
         row = {"loop": k, "images": len(stamps), "dropped": len(stamps) - len(reported),
-               "estimated": len(estimated), "ate_percent": None, "sim3_scale": None}
+               "not_received_by_vo": not_received, "status_lost": max(0, len(stamps) - len(reported) - not_received),
+               "estimated": len(estimated), "ate_percent": None, "sim3_scale": None,
+               "lag_ms": lag_percentiles(stamps, published_wall, status_wall),
+               "pipeline_ms": lag_percentiles(stamps, None, status_wall),
+               "recoveries": ["%.1f s: %s" % ((s - t0) * 1e-9, notes[s]) for s in stamps if s in notes]}
         if len(estimated) >= 10:
             gt_file, est_file, js = (os.path.join(tmp, n) for n in ("gt.tum", "est.tum", "eval.json"))
             with open(gt_file, "w") as f:
@@ -262,8 +318,17 @@ def main():
         print("memory (VmRSS of vo_manager): %.1f MB after the first loop, %.1f MB at the end (%+.2f MB), peak "
               "%.1f MB, trend %+.2f MB/h" % (kb0 / 1024, kb1 / 1024, (kb1 - kb0) / 1024, peak / 1024,
                                             slope * 3600 / 1024))
-    print("frames: %d published, %d without a status (dropped), %.3f %%" %
-          (images, dropped, 100.0 * dropped / images if images else 0.0))
+    not_received = sum(r["not_received_by_vo"] for r in results)
+    if memory:
+        busy = [m[3] for m in memory]
+        steal = [m[4] for m in memory]
+        print("machine (all %d cores, every %gs sample): busy median %.0f %%, max %.0f %%; steal (other guests of "
+              "the VM host) median %.1f %%, max %.1f %%" % (os.cpu_count(), args.sample_s, 100 * statistics.median(busy),
+                                                          100 * max(busy), 100 * statistics.median(steal),
+                                                          100 * max(steal)))
+    print("frames: %d published, %d without a status here (%.3f %%): %d never reached the VO (dropped by its "
+          "input queue), %d processed but their status lost on the way to this subscriber" %
+          (images, dropped, 100.0 * dropped / images if images else 0.0, not_received, dropped - not_received))
     if ates:
         first = ates[0]
         within = sum(1 for a in ates if a <= 2.0 * first)

@@ -125,8 +125,17 @@ bool Player::next(PlayerMessage* message) {
       // As the camera gives it: a 16-bit raw frame (the flight camera's MSB-aligned 10/12-bit pixels) as
       // mono16, 8-bit gray as mono8; colour datasets are converted to gray.
       try {
-        cv::Mat pixels = dataset_.loadImageUnchanged(event.index);
-        if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
+        cv::Mat pixels = options_.cache_images && event.index < image_cache_.size()
+                             ? image_cache_[event.index]
+                             : cv::Mat();
+        if (pixels.empty()) {
+          pixels = dataset_.loadImageUnchanged(event.index);
+          if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
+          if (options_.cache_images) {
+            if (image_cache_.size() < dataset_.size()) image_cache_.resize(dataset_.size());
+            image_cache_[event.index] = pixels;
+          }
+        }
         m.image = toImageMsg(pixels, camera_header);
       } catch (const std::exception& e) {  // a corrupt or missing file: this frame is dropped, not the run
         m.skipped = std::string("image ") + std::to_string(event.index) + " skipped: " + e.what();

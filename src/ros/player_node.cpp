@@ -122,6 +122,7 @@ PlayerOptions readOptions(ros::NodeHandle& pnh, const PlayerCommandLine& cl) {
   o.start_index = static_cast<size_t>(start);
   pnh.param("loop", o.loop, o.loop);
   pnh.param("publish_path", o.publish_path, o.publish_path);
+  pnh.param("cache_images", o.cache_images, o.cache_images);
   pnh.param("sensor_spec_from_dataset", o.sensor_spec_from_dataset, o.sensor_spec_from_dataset);
   pnh.param("publish_initial_state", o.publish_initial_state, o.publish_initial_state);
   applyCommandLine(cl, &o);

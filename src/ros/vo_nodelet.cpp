@@ -631,6 +631,7 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
   std::unique_ptr<Pipeline> makePipeline(const VoConfig& config, const PinholeCamera& camera) {
     // The homography's plane prior comes from the configuration (~motion/plane_normal_prior), like every
     // other pipeline setting: one default, in the core struct.
+    applyOpenCvThreads(config.cpu_budget);
     return std::make_unique<Pipeline>(config, camera);
   }
 

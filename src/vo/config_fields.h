@@ -221,6 +221,7 @@ void cpuBudgetFields(C& c, V& v) {
   v("frame_budget_ms", c.frame_budget_ms, 0.0, 1e5);
   v("window_frames", c.window_frames, 1, 100000);
   v("relax_ratio", c.relax_ratio, 0.05, 1.0);
+  v("opencv_threads", c.opencv_threads, 0, 256);
 }
 
 /// Walks every section of VoConfig in file order.

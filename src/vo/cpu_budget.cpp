@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/core/utility.hpp>
+
 #include "planetary_vo/geometry/median.h"
 
 namespace planetary_vo {
@@ -26,6 +28,10 @@ std::string describeAgainst(const VoConfig& base, const VoConfig& c) {
 }
 
 }  // namespace
+
+void applyOpenCvThreads(const CpuBudgetConfig& config) {
+  if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);
+}
 
 CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
   const int floor_features = std::max(1, base.tracker.min_tracked_features);

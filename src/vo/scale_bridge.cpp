@@ -83,6 +83,10 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
   // They must be most of the shared points and agree on the scale: points of the old map that LK carried onto
   // other ground scatter in depth ratio, the same points seen again do not.
   const int consistent = static_cast<int>(ratios.size());
+  // Enough shared points, but most of them off their tracks: LK carried them onto other ground, which is
+  // itself evidence that the view jumped (tested with the depths below, which cannot tell a jump from a
+  // descent whose speed falls with its altitude: one of the 66 jumps of a 6-minute soak passed them).
+  bool tracks_jumped = false;
   if (consistent >= kMinSharedPointsForBridge && consistent >= kMinSharedPointFraction * shared) {
     const double scale = medianInPlace(&ratios);
     std::vector<double> deviations;
@@ -97,6 +101,7 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
     bridge.detail = std::to_string(consistent) + " shared points disagree on the scale (median deviation " +
                     std::to_string(100.0 * spread) + " %)";
   } else if (shared >= kMinSharedPointsForBridge) {
+    tracks_jumped = consistent < kMinSharedPointFraction * shared;
     bridge.detail = std::to_string(shared - consistent) + " of " + std::to_string(shared) +
                     " shared points off their tracks by more than " +
                     std::to_string(kMaxSharedPointAngleDeg) + " deg";
@@ -111,18 +116,22 @@ ScaleBridge bridgeScale(const Map& old_map, const PinholeCamera& camera, const P
   if (keyframeVelocity(old_map, &v_world_per_s) && dt_new > 0.0 && v_world_per_s.norm() > 0.0) {
     const double speed_scale = v_world_per_s.norm() * dt_new;
     const double implied_depth = speed_scale * init.median_depth;
-    view_jumped =
+    const bool depth_jumped =
         old_depth > 0.0 && new_depth_known &&
         (implied_depth > kMaxDepthJumpFactor * old_depth || old_depth > kMaxDepthJumpFactor * implied_depth);
+    view_jumped = depth_jumped || tracks_jumped;
     if (!view_jumped) {
       bridge.scale = speed_scale;
       bridge.confidence_factor = kSpeedBridgeConfidence;
       bridge.source = ScaleBridgeSource::kKeyframeSpeed;
       return bridge;
     }
-    bridge.detail += std::string(bridge.detail.empty() ? "" : "; ") +
-                     "the keyframe speed would put the scene at " + std::to_string(implied_depth) +
-                     " where the old map is seen at " + std::to_string(old_depth) + ": the view jumped";
+    bridge.detail +=
+        std::string(bridge.detail.empty() ? "" : "; ") +
+        (depth_jumped ? "the keyframe speed would put the scene at " + std::to_string(implied_depth) +
+                            " where the old map is seen at " + std::to_string(old_depth)
+                      : std::string("the shared points left their tracks")) +
+        ": the view jumped";
     // 3. The first map's scene depth: nothing observed relates the two maps.
     if (first_map_depth > 0.0) {
       bridge.scale = first_map_depth / init.median_depth;

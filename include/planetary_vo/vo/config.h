@@ -243,6 +243,11 @@ struct CpuBudgetConfig {
   /// A step is undone when the median is below this fraction of the budget and the lighter step's measured
   /// cost says the heavier one fits the budget (hysteresis: no step back and forth every window).
   double relax_ratio = 0.6;
+  /// Threads of OpenCV's parallel loops (LK, pyramids; cv::setNumThreads, process-wide); 0 = OpenCV's default
+  /// (one per core). 1 runs them on the calling thread: on a small flight computer whose other core serves
+  /// the optimiser thread and the other nodes, a worker per core only adds waiting (docs/visual_core.md
+  /// measures it).
+  int opencv_threads = 0;
 };
 
 /// The whole configuration. A default-constructed VoConfig is the documented default (config/default.yaml).

@@ -28,6 +28,11 @@
 
 namespace planetary_vo {
 
+/// Sets the threads of OpenCV's parallel loops to cpu_budget.opencv_threads (cv::setNumThreads, for the whole
+/// process) when it is > 0; 0 leaves OpenCV's default. The callers that make a Pipeline (vo_run, the VO
+/// nodelet) call it; the pipeline itself does not touch process-wide settings.
+void applyOpenCvThreads(const CpuBudgetConfig& config);
+
 class CpuBudget {
  public:
   /// @param base the configuration of step 0 (its cpu_budget section is the controller's own).

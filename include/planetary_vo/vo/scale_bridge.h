@@ -10,7 +10,8 @@
 ///      scene depth it implies agrees with the depth at which the reference camera sees the old map (within
 ///      kMaxDepthJumpFactor either way: both depths are taken from the same pose, so a larger jump means the
 ///      view changed discontinuously - a jump in the imagery, the soak's loop back to the start - and the
-///      old map's speed says nothing about the new scene);
+///      old map's speed says nothing about the new scene), and if the shared points (5 or more) were not
+///      mostly off their tracks (LK carried them onto other ground: the view jumped as well);
 ///   3. when they contradict each other: the first map's scene depth (the new map's median depth is set to
 ///      the median depth of the navigation's first map, in world units). Vision alone then has no evidence
 ///      of the scale; this keeps it within the range of scene depths of the descent instead of compounding

@@ -257,6 +257,7 @@ int main(int argc, char** argv) {
       config.cpu_budget.frame_budget_ms = 0.0;  // fixed at that step
     }
     const Dataset dataset = Dataset::open(options.dataset_dir);
+    applyOpenCvThreads(config.cpu_budget);
     Pipeline pipeline(config, dataset.camera());
     CpuBudget cpu_budget(config);
     std::vector<int> frames_at_step(static_cast<size_t>(cpu_budget.numSteps()), 0);

@@ -411,7 +411,8 @@ InertialScene makeInertialScene(uint64_t imu_seed) {
     if (imu_seed > 0) {
       s.angular_velocity_radps += bias.gyro_radps;
       s.specific_force_mps2 += bias.accel_mps2;
-      s.angular_velocity_radps += Eigen::Vector3d(gyro_noise(imu_rng), gyro_noise(imu_rng), gyro_noise(imu_rng));
+      s.angular_velocity_radps +=
+          Eigen::Vector3d(gyro_noise(imu_rng), gyro_noise(imu_rng), gyro_noise(imu_rng));
       s.specific_force_mps2 +=
           Eigen::Vector3d(accel_noise(imu_rng), accel_noise(imu_rng), accel_noise(imu_rng));
     }
@@ -465,13 +466,14 @@ TEST(AdjustBundle, ImuFactorsFixTheScaleAndTheVelocities) {
   const BaSummary s = adjustBundle(&problem, configWith(RobustLoss::kHuber));
   double max_velocity_error = 0.0;
   for (size_t i = 0; i < problem.inertial.states.size(); ++i)
-    max_velocity_error = std::max(
-        max_velocity_error,
-        (problem.inertial.states[i].v_world_mps - truth.inertial.states[i].v_world_mps).norm());
-  std::printf("  vision only: scale %.5f; with the IMU: scale %.6f, velocity error <= %.2e m/s, %d factors, "
-              "rms %.2e px, %d iterations\n",
-              scaleOf(vision_only), scaleOf(problem), max_velocity_error, s.imu_factors, s.final_rms_px,
-              s.iterations);
+    max_velocity_error =
+        std::max(max_velocity_error,
+                 (problem.inertial.states[i].v_world_mps - truth.inertial.states[i].v_world_mps).norm());
+  std::printf(
+      "  vision only: scale %.5f; with the IMU: scale %.6f, velocity error <= %.2e m/s, %d factors, "
+      "rms %.2e px, %d iterations\n",
+      scaleOf(vision_only), scaleOf(problem), max_velocity_error, s.imu_factors, s.final_rms_px,
+      s.iterations);
   EXPECT_TRUE(s.converged);
   EXPECT_EQ(s.imu_factors, kKeyframes - 1);
   EXPECT_LT(std::abs(scaleOf(problem) - 1.0), 1e-4);
@@ -517,11 +519,12 @@ TEST(AdjustBundle, CovarianceOfTheWindowStatesIsConsistent) {
     var_sum += est.covariance.diagonal();
   }
   const double nees = nees_sum / kDraws;
-  std::printf("  NEES of the newest keyframe: mean %.2f over %d draws (9 dof); error RMS / predicted sigma: "
-              "position %.2f, attitude %.2f, velocity %.2f; covariance %.1f ms per solve\n",
-              nees, kDraws, std::sqrt(sq_sum.head<3>().sum() / var_sum.head<3>().sum()),
-              std::sqrt(sq_sum.segment<3>(3).sum() / var_sum.segment<3>(3).sum()),
-              std::sqrt(sq_sum.tail<3>().sum() / var_sum.tail<3>().sum()), covariance_ms);
+  std::printf(
+      "  NEES of the newest keyframe: mean %.2f over %d draws (9 dof); error RMS / predicted sigma: "
+      "position %.2f, attitude %.2f, velocity %.2f; covariance %.1f ms per solve\n",
+      nees, kDraws, std::sqrt(sq_sum.head<3>().sum() / var_sum.head<3>().sum()),
+      std::sqrt(sq_sum.segment<3>(3).sum() / var_sum.segment<3>(3).sum()),
+      std::sqrt(sq_sum.tail<3>().sum() / var_sum.tail<3>().sum()), covariance_ms);
   EXPECT_GT(nees, 6.0);
   EXPECT_LT(nees, 12.5);
   for (int block = 0; block < 3; ++block) {
@@ -570,6 +573,43 @@ TEST(AdjustBundle, GaussianNoiseGivesNoiseLevelRmsAndMuchBetterPoses) {
   EXPECT_LT(after.mean_trans_rel, 0.2 * before.mean_trans_rel);
   // 0.5 px noise never reaches 3 * 2 px.
   EXPECT_TRUE(s.outliers.empty()) << s.outliers.size() << " outliers";
+}
+
+// Issue 12: the same window 200 km from the origin (a descent far from the landing site; the soak's loops
+// each continuing where the last ended) must be solved as near it. With T_cam_world blocks, a rotation step
+// moves t_cam_world by the rotation times the distance to the origin: uncentred, Levenberg-Marquardt needed
+// more iterations there (the optimiser's CPU grew loop after loop in the soak). adjustBundle() solves about
+// the mean camera centre.
+TEST(AdjustBundle, AWindowFarFromTheOriginIsSolvedAsNearIt) {
+  const BaProblem truth = makeDescentScene(10, 300, 5);
+  BaProblem near = truth;
+  addPixelNoise(&near, 0.5, 6);
+  perturb(&near, 0.5, 0.02, 0.01, 7);
+  const Eigen::Vector3d far_away(2.0e5, -1.0e5, 5.0e4);
+  BaProblem far = near;
+  for (BaKeyframe& kf : far.keyframes) kf.T_cam_world.translation() -= kf.T_cam_world.linear() * far_away;
+  for (BaPoint& p : far.points) p.p_world += far_away;
+
+  const BaSummary s_near = adjustBundle(&near, configWith(RobustLoss::kHuber));
+  const BaSummary s_far = adjustBundle(&far, configWith(RobustLoss::kHuber));
+  std::printf("  near: %d iterations, rms %.4f px; far: %d iterations, rms %.4f px\n", s_near.iterations,
+              s_near.final_rms_px, s_far.iterations, s_far.final_rms_px);
+  ASSERT_TRUE(s_near.converged && s_far.converged);
+  EXPECT_EQ(s_far.iterations, s_near.iterations);
+  EXPECT_NEAR(s_far.final_rms_px, s_near.final_rms_px, 1e-6);
+  double max_point_m = 0.0, max_centre_m = 0.0;
+  for (size_t j = 0; j < near.points.size(); ++j)
+    max_point_m = std::max(max_point_m, (far.points[j].p_world - far_away - near.points[j].p_world).norm());
+  for (size_t k = 0; k < near.keyframes.size(); ++k) {
+    const Pose& a = near.keyframes[k].T_cam_world;
+    const Pose& b = far.keyframes[k].T_cam_world;
+    const Eigen::Vector3d c_near = -a.linear().transpose() * a.translation();
+    const Eigen::Vector3d c_far = -b.linear().transpose() * b.translation() - far_away;
+    max_centre_m = std::max(max_centre_m, (c_far - c_near).norm());
+  }
+  // The scene is 300-500 m deep: a micrometre is the rounding of positions 2e5 m from the origin.
+  EXPECT_LT(max_point_m, 1e-4) << "points";
+  EXPECT_LT(max_centre_m, 1e-4) << "camera centres";
 }
 
 class AdjustBundleOutliers : public ::testing::TestWithParam<RobustLoss> {};

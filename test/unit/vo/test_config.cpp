@@ -157,6 +157,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.cpu_budget.frame_budget_ms, 40.0);
   EXPECT_EQ(c.cpu_budget.window_frames, 10);
   EXPECT_DOUBLE_EQ(c.cpu_budget.relax_ratio, 0.5);
+  EXPECT_EQ(c.cpu_budget.opencv_threads, 1);
 }
 
 // A +z (nadir) prior by default picked the wrong homography decomposition at frame 1 of the KITTI
@@ -227,7 +228,7 @@ TEST(VoConfig, EachSectionTakesPartInEquality) {
   c.cpu_budget = fixture.cpu_budget;
   EXPECT_FALSE(c == defaults) << "cpu_budget";
   c = VoConfig();
-  c.cpu_budget.relax_ratio = 0.7;
+  c.cpu_budget.opencv_threads = 2;
   EXPECT_FALSE(c == defaults) << "cpu_budget, last key";
   // The last key of a section, in case a walker stops early.
   c = VoConfig();

@@ -132,6 +132,28 @@ TEST(ScaleBridge, AViewThatJumpedTakesTheFirstMapsDepthNotTheOldSpeed) {
   EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
 }
 
+TEST(ScaleBridge, SharedPointsOffTheirTracksMeanTheViewJumpedEvenWhenTheDepthsAgree) {
+  // The soak's loop back to the start of a descent whose speed falls with its altitude: the keyframe speed of
+  // the slow, low end and the new map's deep scene multiply to about the old map's depth, so the depth check
+  // passes (1 jump in 60), but the points LK carried over the jump are off their tracks (8 of 8 here: the
+  // reference pose is 5 units sideways). That is evidence of the jump: the first map's depth is taken.
+  const Map map = lostMap(8);
+  Initialization init = initSeeingTheOldPointsAgain();
+  init.median_depth = 10.0;  // 3 units/s x 0.5 s x 10 = 15 old units, where the old map is seen at about 17
+  const ScaleBridge bridge = bridgeScale(map, kCamera, at({5, 0, 3}), 1.0, 1.5, init, 50.0);
+  EXPECT_EQ(bridge.source, ScaleBridgeSource::kFirstMapDepth) << bridge.detail;
+  EXPECT_NEAR(bridge.scale, 50.0 / 10.0, 1e-12);
+  EXPECT_DOUBLE_EQ(bridge.confidence_factor, 0.0);
+  EXPECT_NE(bridge.detail.find("the shared points left their tracks: the view jumped"), std::string::npos)
+      << bridge.detail;
+  // Fewer than 5 shared points say nothing either way: the speed bridges as before.
+  Initialization few = init;
+  few.track_ids.resize(4);
+  few.points_c1.resize(4);
+  EXPECT_EQ(bridgeScale(map, kCamera, at({5, 0, 3}), 1.0, 1.5, few, 50.0).source,
+            ScaleBridgeSource::kKeyframeSpeed);
+}
+
 TEST(ScaleBridge, SceneDepthWithoutAVelocityAndNothingWithoutAMap) {
   Map map;
   const uint64_t kf = map.addKeyframe(0.0, at({0, 0, 0}), {1, 2, 3}, std::vector<Eigen::Vector2d>(3));
