@@ -8,6 +8,9 @@ messages, never decoded), and for --minutes:
   - samples the resident memory (VmRSS) of the nodelet manager every --sample-s seconds,
   - counts the images the player published (one ground_truth/pose per image) that got no vo/status (dropped:
     the VO fell behind and its input queue overflowed, or a message was lost),
+  - tells the two apart by the VO's own count of images received (VoStatus.num_images), and records per loop
+    the VO's lag (status arrival minus ground-truth pose arrival here), the pipeline's time, every recovery and
+    scale-source change with its status message, and the machine's busy and steal time,
   - scores every complete loop on its own: Sim(3) ATE (vo_eval) of the poses the status calls TRACKING or
     RECOVERED against that loop's ground truth, and the Sim(3) scale (metres per VO unit) of each loop, whose
     loop-to-loop ratio shows whether the vision-only scale drifts across the losses.
