@@ -84,6 +84,7 @@ Player::Player(const Dataset& dataset, const PlayerOptions& options)
           : kSingleImageIntervalS;
   loop_period_s_ = (schedule_.back().time_s - schedule_.front().time_s) + image_interval;
   path_.header.frame_id = options_.world_frame;
+  if (options_.cache_images) image_cache_.resize(dataset.size());
 }
 
 ros::Time Player::stampOf(double dataset_time_s, size_t loop) const {
@@ -125,16 +126,11 @@ bool Player::next(PlayerMessage* message) {
       // As the camera gives it: a 16-bit raw frame (the flight camera's MSB-aligned 10/12-bit pixels) as
       // mono16, 8-bit gray as mono8; colour datasets are converted to gray.
       try {
-        cv::Mat pixels = options_.cache_images && event.index < image_cache_.size()
-                             ? image_cache_[event.index]
-                             : cv::Mat();
+        cv::Mat pixels = options_.cache_images ? image_cache_[event.index] : cv::Mat();
         if (pixels.empty()) {
           pixels = dataset_.loadImageUnchanged(event.index);
           if (pixels.type() != CV_8UC1 && pixels.type() != CV_16UC1) pixels = dataset_.loadImage(event.index);
-          if (options_.cache_images) {
-            if (image_cache_.size() < dataset_.size()) image_cache_.resize(dataset_.size());
-            image_cache_[event.index] = pixels;
-          }
+          if (options_.cache_images) image_cache_[event.index] = pixels;
         }
         m.image = toImageMsg(pixels, camera_header);
       } catch (const std::exception& e) {  // a corrupt or missing file: this frame is dropped, not the run

@@ -737,8 +737,12 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
 
 /// Moves the problem's world by `delta`: points, camera centres and the altimeter planes. Rotations,
 /// velocities, biases, the IMU constraints (position differences) and the covariances do not change.
+void translateCamera(Pose* T_cam_world, const Eigen::Vector3d& delta) {
+  T_cam_world->translation() -= T_cam_world->linear() * delta;
+}
+
 void translateWorld(BaProblem* problem, const Eigen::Vector3d& delta) {
-  for (BaKeyframe& kf : problem->keyframes) kf.T_cam_world.translation() -= kf.T_cam_world.linear() * delta;
+  for (BaKeyframe& kf : problem->keyframes) translateCamera(&kf.T_cam_world, delta);
   for (BaPoint& p : problem->points) p.p_world += delta;
   for (BaRangeObservation& r : problem->ranges) r.plane.centroid_world += delta;
 }
@@ -762,16 +766,18 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
   if (!origin.allFinite()) return solveBundle(problem, config, abort, num_residuals);
   BaProblem local = *problem;
   translateWorld(&local, -origin);
-  const BaProblem moved = local;
+  std::vector<Pose> moved_poses;
+  std::vector<Eigen::Vector3d> moved_points;
+  for (const BaKeyframe& kf : local.keyframes) moved_poses.push_back(kf.T_cam_world);
+  for (const BaPoint& p : local.points) moved_points.push_back(p.p_world);
   const BaSummary summary = solveBundle(&local, config, abort, num_residuals);
   for (size_t k = 0; k < local.keyframes.size(); ++k) {
-    if (local.keyframes[k].T_cam_world.matrix() == moved.keyframes[k].T_cam_world.matrix()) continue;
-    Pose T = local.keyframes[k].T_cam_world;
-    T.translation() -= T.linear() * origin;
-    problem->keyframes[k].T_cam_world = T;
+    if (local.keyframes[k].T_cam_world.matrix() == moved_poses[k].matrix()) continue;
+    problem->keyframes[k].T_cam_world = local.keyframes[k].T_cam_world;
+    translateCamera(&problem->keyframes[k].T_cam_world, origin);
   }
   for (size_t j = 0; j < local.points.size(); ++j) {
-    if (local.points[j].p_world != moved.points[j].p_world)
+    if (local.points[j].p_world != moved_points[j])
       problem->points[j].p_world = local.points[j].p_world + origin;
   }
   problem->inertial.states = local.inertial.states;
