@@ -28,6 +28,8 @@ TerrainMap::TerrainMap(const TerrainMapConfig& config) : config_(config) {
       !positive(config_.area.footprint_diameter_m))
     throw std::invalid_argument(
         "TerrainMap: radii, sigmas, cell size, extent and footprint must be positive");
+  if (!(config_.max_support_offset > 0.0 && config_.max_support_offset <= 1.0))
+    throw std::invalid_argument("TerrainMap: max_support_offset must be in (0, 1]");
   if (config_.min_points_per_fit < 3)
     throw std::invalid_argument("TerrainMap: min_points_per_fit must be at least 3 (a plane)");
 }
@@ -92,6 +94,7 @@ TerrainProducts TerrainMap::products() const {
                           {"max_point_sigma_z_m", config_.max_point_sigma_z_m},
                           {"point_sigma_floor_m", config_.point_sigma_floor_m},
                           {"min_points_per_fit", config_.min_points_per_fit},
+                          {"max_support_offset", config_.max_support_offset},
                           {"metric", metric_ ? 1.0 : 0.0}};
   cv::Mat elevation = geometry.newLayer(), sigma = geometry.newLayer(), support = geometry.newLayer(0.0f);
   cv::Mat slope_sigma = geometry.newLayer(), relief_sigma = geometry.newLayer();
@@ -154,6 +157,8 @@ TerrainProducts TerrainMap::products() const {
       }
       support.at<float>(row, col) = static_cast<float>(n);
       if (n < config_.min_points_per_fit) continue;
+      // One-sided support (the edge of the seen ground): the plane would be extrapolated to the centre.
+      if (std::hypot(A(0, 1), A(0, 2)) > config_.max_support_offset * R * A(0, 0)) continue;
       // Points (nearly) on a line leave the plane undetermined: refuse rather than guess. The moments are
       // compared in units of the radius so that the test does not depend on the map's unit.
       Eigen::Matrix3d A_scaled = A;

@@ -10,8 +10,9 @@
 /// support_radius_m of the cell centre (weight 1 / (sigma_z^2 + sigma_floor^2) of each point, times a
 /// Gaussian of its distance with sigma support_radius_m / 2), evaluated at the centre: a; its 1-sigma from
 /// the fit's covariance, scaled up by the fit's residual scatter when that is larger than the points'
-/// sigmas. With fewer than min_points_per_fit points (or points all on a line) the cell stays unknown (NaN):
-/// a hole in the map is reported, never filled in.
+/// sigmas. With fewer than min_points_per_fit points, points all on a line, or points whose weighted
+/// centroid is off the cell by more than max_support_offset of the radius (one-sided support: the plane
+/// would be extrapolated) the cell stays unknown (NaN): a hole in the map is reported, never filled in.
 ///
 /// Frames and units: the VO world of the events. It must be gravity-aligned (z up: the initial pose handed
 /// over, or the visual-inertial alignment) for slopes to mean anything; distances are metres only when the
@@ -43,6 +44,10 @@ struct TerrainMapConfig {
   /// Radius of the points around a cell that its elevation plane is fitted to (m).
   double support_radius_m = 4.0;
   int min_points_per_fit = 4;
+  /// A cell is known only when the weighted centroid of its support points lies within this fraction of
+  /// support_radius_m of its centre: the plane is interpolated there, not extrapolated from points on one
+  /// side (the edge of the seen ground). 1 = no such test.
+  double max_support_offset = 0.35;
 };
 
 struct TerrainProducts {

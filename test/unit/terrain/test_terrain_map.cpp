@@ -214,6 +214,61 @@ TEST(TerrainMap, SlopeAndReliefSigmasFollowTheScatterNotTheDeclaredSigmas) {
   EXPECT_LT(mean_slope_sigma, 0.6);
 }
 
+// The edge of the seen ground: points only on x <= 0 of a curved surface (z = 0.1 x^2, a crater's floor).
+// A cell beyond the edge would get a plane extrapolated from points on one side of it (measured: 0.18 m
+// worse than the plane fit's curvature bias of 0.1 m inside, with a 2 m support); with max_support_offset
+// it stays unknown, while the cells inside keep their elevation.
+TEST(TerrainMap, CellsBeyondTheEdgeOfTheSeenGroundStayUnknownNotExtrapolated) {
+  auto curved = [](double x) { return 0.1 * x * x; };
+  MapEvents events;
+  uint64_t id = 1;
+  for (double y = -24.0; y <= 24.0; y += 0.25)
+    for (double x = -24.0; x <= 0.0; x += 0.25) {
+      MapPointState p;
+      p.id = id++;
+      p.p_world = Eigen::Vector3d(x, y, curved(x));
+      p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, 0.05 * 0.05).asDiagonal();
+      p.num_observations = 3;
+      events.points_added.push_back(p);
+    }
+  auto worstBeyondTheEdge = [&](double max_support_offset, int* known_beyond, int* known_inside) {
+    TerrainMapConfig config = smallArea();
+    config.area.half_extent_m = 8.0;
+    config.area.cell_size_m = 0.5;
+    config.support_radius_m = 2.0;
+    config.max_support_offset = max_support_offset;
+    TerrainMap map(config);
+    map.apply(events, true);
+    const TerrainProducts products = map.products();
+    const GridGeometry& g = products.grids.geometry;
+    const cv::Mat& elevation = products.grids.layers.at("elevation_m");
+    double worst = 0.0;
+    *known_beyond = *known_inside = 0;
+    for (int row = 0; row < g.rows; ++row)
+      for (int col = 0; col < g.cols; ++col) {
+        const float z = elevation.at<float>(row, col);
+        if (!std::isfinite(z)) continue;
+        const double x = g.x_m(col);
+        if (x >= 1.0) ++*known_beyond;
+        if (x <= -2.0) ++*known_inside;
+        worst = std::max(worst, std::abs(z - curved(x)) - 0.1 * 1.0);  // minus the curvature bias inside
+      }
+    return worst;
+  };
+  int beyond = 0, inside = 0;
+  const double worst_off = worstBeyondTheEdge(1.0, &beyond, &inside);
+  std::printf("  without the test: %d cells known 1 m or more beyond the edge, worst excess error %.2f m\n",
+              beyond, worst_off);
+  EXPECT_GT(beyond, 0) << "the scene must tempt an extrapolation";
+  EXPECT_GT(worst_off, 0.15);
+  const double worst_on = worstBeyondTheEdge(TerrainMapConfig().max_support_offset, &beyond, &inside);
+  std::printf("  with the default test: %d cells known beyond, %d inside, worst excess error %.2f m\n",
+              beyond, inside, worst_on);
+  EXPECT_EQ(beyond, 0);
+  EXPECT_EQ(inside, 33 * 13);  // every cell with x <= -2 m (13 columns of 33 rows)
+  EXPECT_LT(worst_on, 0.05);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
