@@ -4,6 +4,7 @@
 ///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10] [--max-roughness-m
 ///   0.3]
 ///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2] [--json FILE]
+///                [--write-truth-at-resolution DIR]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
@@ -11,12 +12,15 @@
 /// then the landing site the run chose (DIR/landing_sites.yaml, written by vo_run --output-terrain and by
 /// hazard_recorder from the hazard nodelet) or, when the file is absent or a site option is given, the one
 /// the estimated map gives here (terrain/landing_sites.h; defaults but for the options), and whether it is
-/// truly safe (checkSite). Exit 0 when scored, 2 on bad arguments or files.
+/// truly safe (checkSite). --write-truth-at-resolution writes that truth (elevation, slope, roughness) to
+/// DIR/truth_at_resolution.yaml and its TIFFs, for scripts/terrain_errors.py. Exit 0 when scored, 2 on bad
+/// arguments or files.
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <stdexcept>
@@ -33,7 +37,7 @@ int usage(const char* why) {
   std::fprintf(stderr,
                "terrain_eval: %s\nusage: terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] "
                "[--max-slope-deg D] [--max-roughness-m M] [--target-x-m X --target-y-m Y] [--max-divert-m R] "
-               "[--confidence-k K] [--json FILE]\n",
+               "[--confidence-k K] [--json FILE] [--write-truth-at-resolution DIR]\n",
                why);
   return 2;
 }
@@ -63,7 +67,7 @@ void printScore(const TerrainScore& s, const HazardThresholds& thresholds) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string gt_dir, est_dir, est_name = "terrain", json_path;
+  std::string gt_dir, est_dir, est_name = "terrain", json_path, truth_out_dir;
   HazardThresholds thresholds;
   LandingSiteParams site_params;
   bool choose_here = false;  // a site option given: choose on the map here rather than read the run's choice
@@ -80,6 +84,8 @@ int main(int argc, char** argv) {
         est_name = value;
       else if (arg == "--json")
         json_path = value;
+      else if (arg == "--write-truth-at-resolution")
+        truth_out_dir = value;
       else if (arg == "--max-slope-deg")
         thresholds.max_slope_deg = std::stod(value);
       else if (arg == "--max-roughness-m")
@@ -112,7 +118,14 @@ int main(int argc, char** argv) {
       const auto footprint = truth.parameters.find("footprint_diameter_m");
       if (footprint == truth.parameters.end())
         throw std::runtime_error("the truth's grid set has no footprint_diameter_m parameter");
-      at_support = scoreTerrain(truthAtSupport(truth, support_m, footprint->second), estimate, thresholds);
+      const GridSet truth_at_support = truthAtSupport(truth, support_m, footprint->second);
+      at_support = scoreTerrain(truth_at_support, estimate, thresholds);
+      if (!truth_out_dir.empty()) {
+        std::filesystem::create_directories(truth_out_dir);
+        writeGridSet(truth_out_dir, "truth_at_resolution", truth_at_support);
+      }
+    } else if (!truth_out_dir.empty()) {
+      throw std::runtime_error("--write-truth-at-resolution: the map states no support_radius_m");
     }
     std::printf("terrain: %d x %d cells of %.2f m (%d cells)\n", truth.geometry.cols, truth.geometry.rows,
                 truth.geometry.cell_size_m, s.cells);
