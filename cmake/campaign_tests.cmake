@@ -38,7 +38,9 @@ add_dependencies(tests lunar_render vo_run vo_eval)
 # The sensitivity sweep (scripts/vo_sensitivity.py, docs/visual_core.md) on the VO rostests' short descent:
 #   sensitivity_tool     two parameters x four values with the real vo_run and vo_eval: one run per distinct
 #                        configuration, the tables (base value, worst ratio, cliff), the plots, a second
-#                        invocation reusing every run, unknown parameters and missing datasets refused
+#                        invocation reusing every run, unknown parameters and missing datasets refused; the
+#                        --campaigns mode: the median over dispersed renders and a lost render as a cliff (on
+#                        made-up results), and a run over a campaign-shaped folder of two renders
 if(VO_TEST_DATASET)
   add_test(NAME sensitivity_tool
            COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>

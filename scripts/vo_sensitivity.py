@@ -11,6 +11,14 @@ CLIFF_RATIO (2) is a cliff. A run that loses track (fewer than 90 % of the frame
   /usr/bin/python3 scripts/vo_sensitivity.py [--groups ideal512,kitti] [--params features,grid,...]
         [--base-config config/default.yaml] [--jobs N] [--output output/sensitivity] [--write-docs docs/sensitivity]
         [--datasets DIR,...]   (any planetary_vo datasets with ground truth instead of the benchmark's)
+        [--campaigns DIR,...]  (the rendered runs of scripts/vo_campaign.py folders: dispersed renders per sequence)
+
+With --campaigns every setting runs on every dispersed render of each campaign (terrain seed, DEM placement, Sun,
+sensor seed: docs/campaigns.md), and a sequence's figure is the MEDIAN Sim(3) ATE over its renders (a lost run
+counts as infinitely bad), so that one render's luck does not decide: the ratio is that median over the best
+median of the range, a cliff above CLIFF_RATIO, or when a setting loses a render the best one does not. The
+summary also gives each setting's 90th percentile and its lost renders; the plots show the median with the
+25-75 % band.
 
 Files in --output (--write-docs copies summary.md and plots/): configs/*.yaml (one per setting), runs/SETTING/DATASET/{trajectory.txt,vo_run.log,eval.json},
 results.json, summary.md, plots/PARAMETER.png. A vo_run whose trajectory is newer than its configuration, dataset
@@ -86,6 +94,29 @@ def datasets(groups, output, data):
     return out
 
 
+def campaign_datasets(campaign_dirs):
+    """(name, dataset dir, ground truth, family) of every completed render of vo_campaign.py folders; the
+    family (one per campaign) is what the summary aggregates over."""
+    out = []
+    for c in campaign_dirs:
+        c = os.path.abspath(c)
+        with open(os.path.join(c, "runs.json")) as f:
+            plan = json.load(f)
+        family = f"{plan['sequence']}_{plan['size_px']}px_{plan['sensors']}"
+        if plan.get("duration_s"):
+            family += f"_{plan['duration_s']:g}s"
+        for run in plan["runs"]:
+            d = os.path.join(c, "runs", run["id"], "dataset")
+            render = os.path.join(c, "runs", run["id"], "render.json")
+            ok = os.path.isfile(os.path.join(d, "times.txt")) and os.path.isfile(render)
+            if ok:
+                with open(render) as f:
+                    ok = json.load(f).get("rc") == 0
+            if ok:
+                out.append((f"{plan['name']}.{run['id']}", d, d, family))
+    return out
+
+
 def run_one(job):
     """vo_run + vo_eval of one (setting, dataset); returns the result dict."""
     setting, config_path, name, dataset, gt, bin_dir, run_dir, rerun = job
@@ -137,6 +168,147 @@ def analyse(results, params, names, base):
                          if default in values else None}
         table[p] = {"values": values, "default": default, "keys": keys, "per_dataset": per}
     return table
+
+
+def percentile(values, q):
+    """Linear-interpolated percentile of a list that may hold math.inf (lost runs sort last)."""
+    v = sorted(values)
+    if not v:
+        return None
+    pos = (len(v) - 1) * q
+    lo, hi = int(math.floor(pos)), int(math.ceil(pos))
+    if v[hi] == math.inf:
+        return math.inf if pos > lo or v[lo] == math.inf else v[lo]
+    return v[lo] + (v[hi] - v[lo]) * (pos - lo)
+
+
+def analyse_families(results, params, families, base):
+    """Per parameter and family of dispersed renders: per value the median, quartiles and 90th percentile
+    of the ATE over the renders (lost = inf) and the lost count; the ratio of each median to the best."""
+    by = {(r["setting"], r["dataset"]): r for r in results}
+    table = {}
+    for p in params:
+        keys, values, _, _ = PARAMETERS[p]
+        default = get_key(base, keys[0])
+        per = {}
+        for family, names in families.items():
+            stats = []
+            for v in values:
+                ates = []
+                for n in names:
+                    r = by.get((setting_name(p, v), n))
+                    ates.append(r["ate_percent"] if r and r["ok"] else math.inf)
+                stats.append({"median": percentile(ates, 0.5), "q25": percentile(ates, 0.25),
+                              "q75": percentile(ates, 0.75), "p90": percentile(ates, 0.9),
+                              "lost": sum(a == math.inf for a in ates), "runs": len(ates)})
+            medians = [st["median"] for st in stats]
+            best = min(medians)
+            best_i = medians.index(best)
+            ratios = [m / best if best not in (0, math.inf) else math.inf for m in medians]
+            worst = max(ratios)
+            # A setting that loses a render the best setting keeps is a cliff whatever its median.
+            lost_cliff = [st["lost"] > stats[best_i]["lost"] for st in stats]
+            cliff_values = [v for v, r, lc in zip(values, ratios, lost_cliff) if r > CLIFF_RATIO or lc]
+            per[family] = {"stats": stats, "medians": medians, "best": best, "best_value": values[best_i],
+                           "ratios": ratios, "worst_ratio": worst, "worst_value": values[ratios.index(worst)],
+                           "cliff": bool(cliff_values), "cliff_values": cliff_values,
+                           "default_ratio": ratios[values.index(default)] if default in values else None}
+        table[p] = {"values": values, "default": default, "keys": keys, "per_dataset": per}
+    return table
+
+
+def summary_families(table, families, args, results, wall_s):
+    n_runs = {f: len(n) for f, n in families.items()}
+    lines = ["# Sensitivity of the VO to its main parameters, over dispersed renders", "",
+             f"Generated by `scripts/vo_sensitivity.py --campaigns {args.campaigns} --params {args.params} "
+             f"--base-config {os.path.relpath(os.path.abspath(args.base_config), ROOT)}` ({len(results)} (setting, "
+             f"render) results from the runs of {len({r['setting'] for r in results if 'shares_runs_of' not in r})}"
+             f" distinct configurations; this invocation {wall_s / 60:.0f} min wall with --jobs {args.jobs}).",
+             "Renders per sequence: " + ", ".join(f"{f}: {n}" for f, n in n_runs.items())
+             + " (each a vo_campaign.py run: its own terrain seed, DEM placement, Sun elevation and azimuth, "
+             "sensor seed; docs/campaigns.md). One parameter at a time; all others at the base configuration's "
+             "values.",
+             "Cell: the MEDIAN Sim(3) ATE over the renders in % of the path (`vo_eval --align sim3`; a render "
+             "lost, < 90 % of its frames posed, counts as infinitely bad), with the renders lost in brackets. "
+             f"Ratio = that median / the best median of the parameter's range; a cliff is a ratio above "
+             f"{CLIFF_RATIO:g}, or a setting that loses a render the best setting keeps. **Bold** = the base "
+             "value.", ""]
+    lines += ["## Worst ratio to the best setting, per parameter and sequence", "",
+              "| parameter | range | " + " | ".join(families) + " | cliffs |", "|---" * (len(families) + 3) + "|"]
+    for p, t in table.items():
+        cells, cliffs = [], 0
+        for f in families:
+            d = t["per_dataset"][f]
+            cell = fmt_ratio(d["worst_ratio"]) + f" @{d['worst_value']:g}"
+            lost = [f"{v:g}" for v, st in zip(t["values"], d["stats"]) if st["lost"]]
+            if lost:
+                cell += " (lost at " + ", ".join(lost) + ")"
+            if d["cliff"]:
+                cell = f"**{cell}**"
+                cliffs += 1
+            cells.append(cell)
+        lines.append(f"| {p} | {t['values'][0]:g}-{t['values'][-1]:g} | " + " | ".join(cells) + f" | {cliffs} |")
+    lines.append("")
+    for p, t in table.items():
+        keys, values, _, what = PARAMETERS[p]
+        lines += [f"## {p}: {what} (`{'`, `'.join(keys)}`)", "", f"![{p}](plots/{p}.png)", "",
+                  "| sequence | statistic | " + " | ".join((f"**{v:g}**" if v == t["default"] else f"{v:g}")
+                                                         for v in values) + " | best |",
+                  "|---" * (len(values) + 3) + "|"]
+        for f in families:
+            d = t["per_dataset"][f]
+
+            def cell(x):
+                return "lost" if x is None or x == math.inf else f"{x:.3f}"
+            lines.append(f"| {f} | median (lost) | " + " | ".join(
+                cell(st["median"]) + (f" ({st['lost']})" if st["lost"] else "") for st in d["stats"])
+                + f" | {d['best_value']:g} |")
+            lines.append(f"| | 90th percentile | " + " | ".join(cell(st["p90"]) for st in d["stats"]) + " | |")
+            lines.append(f"| | ratio to best | " + " | ".join(fmt_ratio(r) for r in d["ratios"]) + " | |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def plot_families(table, families, out_dir):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    os.makedirs(out_dir, exist_ok=True)
+    for p, t in table.items():
+        keys, values, logx, what = PARAMETERS[p]
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+        for f in families:
+            d = t["per_dataset"][f]
+            pts = [(v, st) for v, st in zip(values, d["stats"]) if st["median"] != math.inf]
+            xs = [v for v, _ in pts]
+            line, = ax1.plot(xs, [st["median"] for _, st in pts], marker="o",
+                             label=f"{f} (median of {d['stats'][0]['runs']})")
+            q75 = [st["q75"] if st["q75"] != math.inf else None for _, st in pts]
+            if all(q is not None for q in q75):
+                ax1.fill_between(xs, [st["q25"] for _, st in pts], q75, color=line.get_color(), alpha=0.2)
+            ax2.plot(xs, [r for r in d["ratios"] if r != math.inf], marker="o", color=line.get_color(), label=f)
+            lost = [v for v, st in zip(values, d["stats"]) if st["lost"]]
+            if lost:
+                ax2.plot(lost, [CLIFF_RATIO * 1.5] * len(lost), "kx", markersize=9)
+        for ax in (ax1, ax2):
+            ax.axvline(t["default"], color="grey", linestyle=":", label="base value")
+            ax.set_xlabel(what)
+            if logx:
+                ax.set_xscale("log")
+            ax.set_xticks(values)
+            ax.set_xticklabels([f"{v:g}" for v in values])
+            ax.grid(True, alpha=0.3)
+        ax1.set_yscale("log")
+        ax1.set_ylabel("Sim(3) ATE, % of path: median, 25-75 %")
+        ax1.legend(fontsize=7, loc="upper left")
+        ax2.axhline(CLIFF_RATIO, color="red", linestyle="--", label=f"cliff ({CLIFF_RATIO:g}x best)")
+        ax2.set_yscale("log")
+        ax2.set_ylabel("median / best median (x = a render lost)")
+        ax2.legend(fontsize=7, loc="upper left")
+        fig.suptitle(f"{p}: {'/'.join(keys)}, over dispersed renders")
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, p + ".png"), dpi=80)
+        plt.close(fig)
 
 
 def fmt_ratio(x):
@@ -243,6 +415,9 @@ def main():
     ap.add_argument("--sequences", default="", help="comma-separated dataset names to keep (default: all)")
     ap.add_argument("--datasets", default="",
                     help="comma-separated planetary_vo dataset folders with ground truth, instead of --groups")
+    ap.add_argument("--campaigns", default="",
+                    help="comma-separated vo_campaign.py folders: every completed render of each, aggregated per "
+                         "campaign (median over the renders), instead of --groups")
     ap.add_argument("--params", default=",".join(PARAMETERS), help="parameters (" + ", ".join(PARAMETERS) + ")")
     ap.add_argument("--base-config", default=os.path.join(ROOT, "config", "default.yaml"))
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
@@ -255,12 +430,18 @@ def main():
         if p not in PARAMETERS:
             sys.exit(f"vo_sensitivity: unknown parameter {p} (known: {', '.join(PARAMETERS)})")
     bin_dir = os.path.join(args.build, "devel", "lib", "planetary_vo")
-    for tool in ("vo_run", "vo_eval") + (() if args.datasets else ("lunar_render",)):
+    for tool in ("vo_run", "vo_eval") + (() if args.datasets or args.campaigns else ("lunar_render",)):
         if not os.path.exists(os.path.join(bin_dir, tool)):
             sys.exit(f"vo_sensitivity: {tool} not found in {bin_dir}: build first (bash scripts/demo.sh builds)")
     with open(args.base_config) as f:
         base = yaml.safe_load(f)
-    if args.datasets:
+    families = {}
+    if args.campaigns:
+        sets = []
+        for name, d, gt, family in campaign_datasets(args.campaigns.split(",")):
+            sets.append((name, d, gt, None))
+            families.setdefault(family, []).append(name)
+    elif args.datasets:
         sets = []
         for d in args.datasets.split(","):
             d = os.path.abspath(d)
@@ -327,14 +508,21 @@ def main():
     for setting, shared in same_as.items():
         results += [dict(r, setting=setting, shares_runs_of=shared) for r in results if r["setting"] == shared]
     names = [s[0] for s in sets]
-    table = analyse(results, params, names, base)
     wall = time.monotonic() - started
-    summary = summary_markdown(table, names, args, results, wall)
+    if families:
+        table = analyse_families(results, params, families, base)
+        summary = summary_families(table, families, args, results, wall)
+    else:
+        table = analyse(results, params, names, base)
+        summary = summary_markdown(table, names, args, results, wall)
     with open(os.path.join(args.output, "results.json"), "w") as f:
         json.dump({"results": results, "analysis": table}, f, indent=1, default=str)
     with open(os.path.join(args.output, "summary.md"), "w") as f:
         f.write(summary)
-    plot(table, names, os.path.join(args.output, "plots"))
+    if families:
+        plot_families(table, families, os.path.join(args.output, "plots"))
+    else:
+        plot(table, names, os.path.join(args.output, "plots"))
     print(summary)
     cliffs = sum(d["cliff"] for t in table.values() for d in t["per_dataset"].values())
     print(f"vo_sensitivity: {len(results)} runs in {wall / 60:.1f} min; {cliffs} (parameter, dataset) pairs with a "
