@@ -33,7 +33,7 @@ endforeach()
 set_tests_properties(campaign_statistics campaign_local campaign_slurm PROPERTIES TIMEOUT 300)
 
 # `cmake --build build --target tests` builds the tools the end-to-end tests run.
-add_dependencies(tests lunar_render vo_run vo_eval)
+add_dependencies(tests lunar_render vo_run vo_eval terrain_eval)
 
 # The sensitivity sweep (scripts/vo_sensitivity.py, docs/visual_core.md) on the VO rostests' short descent:
 #   sensitivity_tool     two parameters x four values with the real vo_run and vo_eval: one run per distinct
@@ -48,4 +48,13 @@ if(VO_TEST_DATASET)
                    SENSITIVITY_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/sensitivity_tool
                    /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_sensitivity_tool.py)
   set_tests_properties(sensitivity_tool PROPERTIES TIMEOUT 600)
+  # terrain_errors_tool: scripts/terrain_errors.py (docs/terrain/README.md) on the descent's true terrain taken
+  # as the estimate: its slope RMSE and precision/recall equal terrain_eval's at the map's resolution, and its
+  # white-noise table falls with the noise
+  add_test(NAME terrain_errors_tool
+           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
+                   PLANETARY_VO_TEST_DATASET=${VO_TEST_DATASET}
+                   TERRAIN_ERRORS_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/terrain_errors_tool
+                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_terrain_errors.py)
+  set_tests_properties(terrain_errors_tool PROPERTIES TIMEOUT 300)
 endif()

@@ -1,0 +1,73 @@
+"""scripts/terrain_errors.py against terrain_eval (docs/terrain/README.md): the rendered test descent's true terrain
+taken as the "estimate" (its own TIFF layers, stated at a 4 m support), so that terrain_eval scores it against the
+truth at that resolution, which it writes with --write-truth-at-resolution. The breakdown script reads those TIFFs
+itself: its slope RMSE and hazard precision/recall must be terrain_eval's to the printed digits (one layer misread,
+or the truth as sampled in place of the truth at the map's resolution, would not be: the latter gives 0.00 deg against
+2.03), and its white-noise table must fall with the noise."""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import unittest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TOOL = os.path.join(ROOT, "scripts", "terrain_errors.py")
+PYTHON = "/usr/bin/python3"
+
+
+def env_or_exit(name):
+    value = os.environ.get(name)
+    if not value:
+        sys.exit(f"{name} must be set (ctest sets it)")
+    return value
+
+
+class TerrainErrors(unittest.TestCase):
+    def test_agrees_with_terrain_eval_and_noise_lowers_precision(self):
+        bin_dir = env_or_exit("PLANETARY_VO_BIN")
+        dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
+        out = env_or_exit("TERRAIN_ERRORS_TEST_OUTPUT")
+        shutil.rmtree(out, ignore_errors=True)
+        est = os.path.join(out, "estimate")
+        os.makedirs(est)
+        # The truth's grid file, renamed "terrain" and stating a 4 m plane-fit support (the map's resolution).
+        with open(os.path.join(dataset, "groundtruth_terrain.yaml")) as f:
+            text = f.read()
+        for layer in ("elevation_m", "slope_deg", "roughness_m"):
+            shutil.copy(os.path.join(dataset, f"groundtruth_terrain_{layer}.tiff"),
+                        os.path.join(est, f"terrain_{layer}.tiff"))
+            text = text.replace(f"groundtruth_terrain_{layer}.tiff", f"terrain_{layer}.tiff")
+        text = text.replace("parameters:\n", "parameters:\n  support_radius_m: 4\n", 1)
+        with open(os.path.join(est, "terrain.yaml"), "w") as f:
+            f.write(text)
+        score = os.path.join(out, "score.json")
+        done = subprocess.run([os.path.join(bin_dir, "terrain_eval"), "--gt", dataset, "--est", est, "--json", score,
+                               "--target-x-m", "0", "--target-y-m", "0"], capture_output=True, text=True, timeout=120)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        with open(score) as f:
+            at_res = json.load(f)["at_map_resolution"]
+        self.assertGreater(at_res["cells_surface"], 10000)
+        self.assertGreater(at_res["slope_rmse_deg"], 0.1)  # the raw truth is not the truth seen at 4 m
+        env = dict(os.environ, PLANETARY_VO_BUILD=os.path.dirname(os.path.dirname(os.path.dirname(
+            bin_dir.rstrip("/")))))
+        done = subprocess.run([PYTHON, TOOL, "--gt", dataset, "--est", est, "--work", os.path.join(out, "work")],
+                              capture_output=True, text=True, timeout=300, env=env)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        printed = done.stdout
+        self.assertTrue(os.path.isfile(os.path.join(out, "work", "truth_at_resolution.yaml")))
+        cells = int(re.search(r"(\d+) cells with an estimated and a true slope", printed).group(1))
+        self.assertEqual(cells, at_res["cells_surface"])
+        rmse = float(re.search(r"slope RMSE ([0-9.]+) deg", printed).group(1))
+        self.assertAlmostEqual(rmse, at_res["slope_rmse_deg"], delta=0.006)
+        p, r = re.search(r"hazard precision ([0-9.]+), recall ([0-9.]+) \(this map\)", printed).groups()
+        self.assertAlmostEqual(float(p), at_res["hazard_precision"], delta=0.0006)
+        self.assertAlmostEqual(float(r), at_res["hazard_recall"], delta=0.0006)
+        noise = [float(x) for x in re.findall(r"sigma [0-9.]+ deg: precision ([0-9.]+)", printed)]
+        self.assertEqual(len(noise), 6)
+        self.assertGreater(noise[0], noise[-1] + 0.1, printed)  # 0.25 deg of noise against 2 deg
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
