@@ -23,8 +23,9 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev libyaml-cpp-dev
   # glog: Ceres logs through it; vo_run sets its level
   libgoogle-glog-dev
-  # plots of the trajectory evaluator; PyYAML for the sensitivity sweep's configurations (scripts/vo_sensitivity.py)
-  python3-matplotlib python3-numpy python3-yaml
+  # plots of the trajectory evaluator; PyYAML for the sensitivity sweep's configurations (scripts/vo_sensitivity.py);
+  # SciPy for the hazard map's error breakdown (scripts/terrain_errors.py, test terrain_errors_tool)
+  python3-matplotlib python3-numpy python3-yaml python3-scipy
   # GUI parts: rviz, headless X for screenshots in CI
   rviz xvfb xauth imagemagick
   # Monte Carlo campaigns on Slurm (scripts/vo_campaign.py --scheduler slurm; the campaign_slurm test starts a
