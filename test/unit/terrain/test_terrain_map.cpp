@@ -34,6 +34,16 @@ TerrainMapConfig smallArea() {
   return config;
 }
 
+/// A map point at p_world with a tight horizontal and the given vertical sigma, seen by 3 keyframes.
+MapPointState groundPoint(uint64_t id, const Eigen::Vector3d& p_world, double sigma_z_m) {
+  MapPointState p;
+  p.id = id;
+  p.p_world = p_world;
+  p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, sigma_z_m * sigma_z_m).asDiagonal();
+  p.num_observations = 3;
+  return p;
+}
+
 /// Points every `spacing_m` (jittered) with vertical noise `noise_m` and a matching covariance.
 MapEvents pointsOnSurface(double spacing_m, double noise_m, uint64_t first_id, unsigned seed) {
   std::mt19937 rng(seed);
@@ -45,12 +55,8 @@ MapEvents pointsOnSurface(double spacing_m, double noise_m, uint64_t first_id, u
     for (double x = -56.0; x <= 56.0; x += spacing_m) {
       const double px = x + jitter(rng), py = y + jitter(rng);
       if (inHole(px, py)) continue;
-      MapPointState p;
-      p.id = id++;
-      p.p_world = Eigen::Vector3d(px, py, surface(px, py) + noise(rng));
-      p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, noise_m * noise_m).asDiagonal();
-      p.num_observations = 3;
-      events.points_added.push_back(p);
+      events.points_added.push_back(
+          groundPoint(id++, Eigen::Vector3d(px, py, surface(px, py) + noise(rng)), noise_m));
     }
   }
   return events;
@@ -173,13 +179,10 @@ TEST(TerrainMap, SlopeAndReliefSigmasFollowTheScatterNotTheDeclaredSigmas) {
   uint64_t id = 1;
   for (double y = -34.0; y <= 34.0; y += 0.5)
     for (double x = -34.0; x <= 34.0; x += 0.5) {
-      MapPointState p;
-      p.id = id++;
       const double px = x + jitter(rng), py = y + jitter(rng);
-      p.p_world = Eigen::Vector3d(px, py, kGradient * px + noise(rng));
-      p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, 0.25 * 0.25).asDiagonal();  // 5x the real noise
-      p.num_observations = 3;
-      events.points_added.push_back(p);
+      // Declared sigma 0.25 m: 5x the real noise.
+      events.points_added.push_back(
+          groundPoint(id++, Eigen::Vector3d(px, py, kGradient * px + noise(rng)), 0.25));
     }
   map.apply(events, true);
   const TerrainProducts products = map.products();
@@ -224,12 +227,7 @@ TEST(TerrainMap, CellsBeyondTheEdgeOfTheSeenGroundStayUnknownNotExtrapolated) {
   uint64_t id = 1;
   for (double y = -24.0; y <= 24.0; y += 0.25)
     for (double x = -24.0; x <= 0.0; x += 0.25) {
-      MapPointState p;
-      p.id = id++;
-      p.p_world = Eigen::Vector3d(x, y, curved(x));
-      p.covariance_world = Eigen::Vector3d(1e-4, 1e-4, 0.05 * 0.05).asDiagonal();
-      p.num_observations = 3;
-      events.points_added.push_back(p);
+      events.points_added.push_back(groundPoint(id++, Eigen::Vector3d(x, y, curved(x)), 0.05));
     }
   auto worstBeyondTheEdge = [&](double max_support_offset, int* known_beyond, int* known_inside) {
     TerrainMapConfig config = smallArea();
