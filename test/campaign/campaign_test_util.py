@@ -31,6 +31,14 @@ def load_tool():
     return module
 
 
+def env_or_exit(name):
+    """An environment variable ctest sets, or exit with a message naming it."""
+    value = os.environ.get(name)
+    if not value:
+        sys.exit(f"{name} must be set (ctest sets it)")
+    return value
+
+
 def bin_dir():
     d = os.environ.get("PLANETARY_VO_BIN")
     if not d or not os.path.isfile(os.path.join(d, "vo_run")):

@@ -10,6 +10,9 @@ import subprocess
 import sys
 import unittest
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from campaign_test_util import env_or_exit  # noqa: E402
+
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "scripts"))
 import vo_sensitivity  # noqa: E402
@@ -18,13 +21,6 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 TOOL = os.path.join(ROOT, "scripts", "vo_sensitivity.py")
 PYTHON = "/usr/bin/python3"
 PARAMS = "lk_levels,kf_track_ratio"  # 4 + 4 settings; each has the base value: 7 distinct configurations
-
-
-def env_or_exit(name):
-    value = os.environ.get(name)
-    if not value:
-        sys.exit(f"{name} must be set (ctest sets it)")
-    return value
 
 
 class SensitivityTool(unittest.TestCase):

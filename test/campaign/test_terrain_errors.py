@@ -12,16 +12,12 @@ import subprocess
 import sys
 import unittest
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from campaign_test_util import env_or_exit  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TOOL = os.path.join(ROOT, "scripts", "terrain_errors.py")
 PYTHON = "/usr/bin/python3"
-
-
-def env_or_exit(name):
-    value = os.environ.get(name)
-    if not value:
-        sys.exit(f"{name} must be set (ctest sets it)")
-    return value
 
 
 class TerrainErrors(unittest.TestCase):
