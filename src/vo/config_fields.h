@@ -172,6 +172,7 @@ void pipelineFields(C& c, V& v) {
   v.enumeration("trajectory_mode", c.trajectory_mode);
   v("max_consecutive_failed_frames", c.max_consecutive_failed_frames, 1, 100000);
   v("frozen_frame_max_mean_abs_diff", c.frozen_frame_max_mean_abs_diff, 0.0, 255.0);
+  v("frozen_frame_max_moved_ratio", c.frozen_frame_max_moved_ratio, 0.0, 1.0);
   v("min_exposure_stddev", c.min_exposure_stddev, 0.0, 128.0);
   v("max_saturated_ratio", c.max_saturated_ratio, 1e-6, 1.0);
   v("exposure_step_ratio", c.exposure_step_ratio, 0.0, 100.0);

@@ -10,8 +10,11 @@
 
 namespace planetary_vo {
 
-bool FrozenFrameDetector::check(const cv::Mat& gray, double* mean_abs_diff) {
-  if (mean_abs_diff) *mean_abs_diff = std::numeric_limits<double>::quiet_NaN();
+bool FrozenFrameDetector::check(const cv::Mat& gray, Difference* difference) {
+  if (difference) {
+    difference->mean_abs_diff = std::numeric_limits<double>::quiet_NaN();
+    difference->moved_ratio = std::numeric_limits<double>::quiet_NaN();
+  }
   if (gray.empty() || gray.type() != CV_8UC1)
     throw std::invalid_argument(
         "FrozenFrameDetector::check: expected a non-empty 8-bit single-channel image");
@@ -25,12 +28,17 @@ bool FrozenFrameDetector::check(const cv::Mat& gray, double* mean_abs_diff) {
       !previous_.empty() && cols_ == gray.cols && rows_ == gray.rows && previous_.size() == current_.size();
   bool frozen = false;
   if (comparable) {
-    uint64_t sum = 0;
-    for (size_t i = 0; i < current_.size(); ++i)
-      sum += static_cast<uint64_t>(std::abs(int(current_[i]) - int(previous_[i])));
-    const double mad = static_cast<double>(sum) / static_cast<double>(current_.size());
-    if (mean_abs_diff) *mean_abs_diff = mad;
-    frozen = threshold_ > 0.0 && mad < threshold_;
+    uint64_t sum = 0, moved = 0;
+    for (size_t i = 0; i < current_.size(); ++i) {
+      const int d = std::abs(int(current_[i]) - int(previous_[i]));
+      sum += static_cast<uint64_t>(d);
+      moved += d > kMovedLevel;
+    }
+    const double n = static_cast<double>(current_.size());
+    const double mad = static_cast<double>(sum) / n;
+    const double moved_ratio = static_cast<double>(moved) / n;
+    if (difference) *difference = {mad, moved_ratio};
+    frozen = threshold_ > 0.0 && mad < threshold_ && moved_ratio <= max_moved_ratio_;
   }
   previous_.swap(current_);
   cols_ = gray.cols;

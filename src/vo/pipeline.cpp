@@ -103,7 +103,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       mapper_(config.map),
       altimeter_(config.altimeter),
       inertial_(config.imu),
-      frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff),
+      frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff,
+                       config.pipeline.frozen_frame_max_moved_ratio),
       exposure_compensator_(config.pipeline.exposure_step_ratio) {
   config_.validate();
   std::string why;
@@ -303,13 +304,14 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   // A frozen frame (stuck frame buffer) is not given to the tracker: tracked, it would give a confident
   // zero-motion pose and teach the motion model that the camera stood still. The tracker keeps the last
   // fresh image, so tracking continues from it when fresh images return; the output coasts meanwhile.
-  double mean_abs_diff = 0.0;
-  if (frozen_detector_.check(gray, &mean_abs_diff)) {
+  FrozenFrameDetector::Difference difference;
+  if (frozen_detector_.check(gray, &difference)) {
     std::ostringstream why;
     why.precision(3);
-    why << "frozen frame: the image repeats the previous one (mean absolute difference " << mean_abs_diff
-        << " < pipeline.frozen_frame_max_mean_abs_diff " << config_.pipeline.frozen_frame_max_mean_abs_diff
-        << " gray levels), not tracked";
+    why << "frozen frame: the image repeats the previous one (mean absolute difference "
+        << difference.mean_abs_diff << " < pipeline.frozen_frame_max_mean_abs_diff "
+        << config_.pipeline.frozen_frame_max_mean_abs_diff << " gray levels, "
+        << 100.0 * difference.moved_ratio << " % of the samples moved), not tracked";
     return refuseInput(why.str(), start, &result);
   }
   // The handed-over state belongs to the first image.

@@ -176,6 +176,9 @@ struct PipelineConfig {
   /// this is a frozen frame (a stuck frame buffer): refused by the input check (input_check.h), not tracked;
   /// 0 = off.
   double frozen_frame_max_mean_abs_diff = 0.5;
+  /// ... unless more than this fraction of the sampled pixels changed by more than 8 gray levels (an edge
+  /// that moved: a slow camera without noise; input_check.h). 1 = the mean difference alone decides.
+  double frozen_frame_max_moved_ratio = 0.0005;
   /// Exposure check (input_check.h): an image whose gray-level standard deviation is below this is black or
   /// blank (nothing to track) and is refused.
   double min_exposure_stddev = 2.0;

@@ -124,6 +124,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
   EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);
   EXPECT_DOUBLE_EQ(c.pipeline.frozen_frame_max_mean_abs_diff, 2.5);
+  EXPECT_DOUBLE_EQ(c.pipeline.frozen_frame_max_moved_ratio, 0.01);
 
   EXPECT_TRUE(c.altimeter.enabled);
   EXPECT_DOUBLE_EQ(c.altimeter.noise.range_noise_floor_m, 0.5);
