@@ -626,6 +626,8 @@ void Pipeline::tryInitialise(FrameResult* result) {
       std::string(recovering ? "re-initialised" : "initialised") + " (" + toString(init.motion.model) + ", " +
       std::to_string(init.points_c1.size()) + " points" +
       (init.rival_points > 0 ? ", rival motion " + std::to_string(init.rival_points) : std::string()) +
+      (init.rival_cost_ratio > 0.0 ? " at " + std::to_string(init.rival_cost_ratio).substr(0, 4) + "x the cost"
+                                   : std::string()) +
       (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") +
       scale_note + ")";
   stage_ = PipelineStage::kTracking;

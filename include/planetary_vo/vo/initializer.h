@@ -50,6 +50,9 @@ struct Initialization {
   std::vector<Eigen::Vector2d> px1, px2;   ///< their ideal pixels in both views
   double median_depth = 0.0;               ///< of points_c1, in baselines
   int rival_points = 0;  ///< points triangulated by the best clearly different motion hypothesis (0: none)
+  /// With a rival triangulating nearly as many points: its reprojection cost on the common correspondences
+  /// over the best motion's (0: not computed). Initialisation needs it at least 1.5.
+  double rival_cost_ratio = 0.0;
 };
 
 /// Two-view motion and map initialisation. Stateless apart from its settings; cheap to copy.
