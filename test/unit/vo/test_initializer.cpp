@@ -240,8 +240,12 @@ TEST(Initializer, ReliefOffThePlaneSettlesTheTwinThatTheCountsCannot) {
                      std::to_string(noise));
         const Initialization map = Initializer(motionConfig(model), MapConfig(), Eigen::Vector3d::Zero())
                                        .initialize(ids(s.px1.size()), s.px1, s.px2, s.camera.K());
-        if (spread == 0.0) EXPECT_FALSE(map.valid) << "a plane started a map";
-        if (map.valid && map.rival_cost_ratio > 0.0) expectMotionClose(map.motion, s.T_c2_c1, 2.0, 0.3);
+        if (spread == 0.0) {
+          EXPECT_FALSE(map.valid) << "a plane started a map";
+        }
+        if (map.valid && map.rival_cost_ratio > 0.0) {
+          expectMotionClose(map.motion, s.T_c2_c1, 2.0, 0.3);
+        }
       }
     }
   }
