@@ -35,6 +35,17 @@ set_tests_properties(campaign_statistics campaign_local campaign_slurm PROPERTIE
 # `cmake --build build --target tests` builds the tools the end-to-end tests run.
 add_dependencies(tests lunar_render vo_run vo_eval terrain_eval)
 
+# A Python test of a tool script on the VO rostests' descent (the real tools of this build); OUTPUT_VAR names
+# the environment variable that gives it its output folder.
+function(add_descent_tool_test name script output_var timeout_s)
+  add_test(NAME ${name}
+           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
+                   PLANETARY_VO_TEST_DATASET=${VO_TEST_DATASET}
+                   ${output_var}=${CAMPAIGN_TEST_OUTPUT}/${name}
+                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/${script})
+  set_tests_properties(${name} PROPERTIES TIMEOUT ${timeout_s})
+endfunction()
+
 # The sensitivity sweep (scripts/vo_sensitivity.py, docs/visual_core.md) on the VO rostests' short descent:
 #   sensitivity_tool     two parameters x four values with the real vo_run and vo_eval: one run per distinct
 #                        configuration, the tables (base value, worst ratio, cliff), the plots, a second
@@ -42,19 +53,9 @@ add_dependencies(tests lunar_render vo_run vo_eval terrain_eval)
 #                        --campaigns mode: the median over dispersed renders and a lost render as a cliff (on
 #                        made-up results), and a run over a campaign-shaped folder of two renders
 if(VO_TEST_DATASET)
-  add_test(NAME sensitivity_tool
-           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
-                   PLANETARY_VO_TEST_DATASET=${VO_TEST_DATASET}
-                   SENSITIVITY_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/sensitivity_tool
-                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_sensitivity_tool.py)
-  set_tests_properties(sensitivity_tool PROPERTIES TIMEOUT 600)
+  add_descent_tool_test(sensitivity_tool test_sensitivity_tool.py SENSITIVITY_TEST_OUTPUT 600)
   # terrain_errors_tool: scripts/terrain_errors.py (docs/terrain/README.md) on the descent's true terrain taken
   # as the estimate: its slope RMSE and precision/recall equal terrain_eval's at the map's resolution, and its
   # white-noise table falls with the noise
-  add_test(NAME terrain_errors_tool
-           COMMAND ${CMAKE_COMMAND} -E env PLANETARY_VO_BIN=$<TARGET_FILE_DIR:vo_run>
-                   PLANETARY_VO_TEST_DATASET=${VO_TEST_DATASET}
-                   TERRAIN_ERRORS_TEST_OUTPUT=${CAMPAIGN_TEST_OUTPUT}/terrain_errors_tool
-                   /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_terrain_errors.py)
-  set_tests_properties(terrain_errors_tool PROPERTIES TIMEOUT 300)
+  add_descent_tool_test(terrain_errors_tool test_terrain_errors.py TERRAIN_ERRORS_TEST_OUTPUT 300)
 endif()
