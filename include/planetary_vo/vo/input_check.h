@@ -11,8 +11,8 @@
 /// moving slowly over mostly flat ground does not (approach_nozzle, 512 ideal, Sun 9.6 deg: mean difference
 /// 0.17-0.49 over 26 frames while the lander moved 0.6-1 m a frame), but there the edges that moved change
 /// by tens of gray levels (0.46-1.3 % of the samples by more than 8), where a repeated buffer changes none.
-/// So the default flags only identical or near-identical frames; a mean difference of 0 switches the check
-/// off.
+/// So the default flags only identical or near-identical frames; frozen_frame_max_mean_abs_diff = 0 switches
+/// the check off.
 ///
 /// checkExposure: a black, blank or saturated image has nothing to track (pipeline.min_exposure_stddev,
 /// pipeline.max_saturated_ratio).
@@ -58,7 +58,6 @@ class FrozenFrameDetector {
   bool check(const cv::Mat& gray, Difference* difference = nullptr);
 
   double threshold() const { return threshold_; }
-  double maxMovedRatio() const { return max_moved_ratio_; }
   /// Forgets the previous image.
   void reset() { previous_.clear(); }
 
