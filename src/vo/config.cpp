@@ -84,6 +84,11 @@ std::vector<std::string> VoConfig::validationErrors() const {
   if (tracker.window_size_px % 2 == 0)
     errors.push_back("tracker.window_size_px: " + std::to_string(tracker.window_size_px) +
                      " must be odd (the window is centred on the feature)");
+  if (tracker.method != TrackingMethod::kKlt && tracker.replenish_strategy != ReplenishStrategy::kEmptyCells)
+    errors.push_back(
+        "tracker.method: anchor_alignment and auto need tracker.replenish_strategy: empty_cells "
+        "(restart_below_min "
+        "tracks fresh features from the previous image with LK)");
   if (tracker.anchor_patch_px % 2 == 0)
     errors.push_back("tracker.anchor_patch_px: " + std::to_string(tracker.anchor_patch_px) +
                      " must be odd (the patch is centred on the feature)");
@@ -183,5 +188,6 @@ const char* toString(KeyframeMode v) { return config_detail::enumName(v); }
 const char* toString(RobustLoss v) { return config_detail::enumName(v); }
 const char* toString(TrajectoryMode v) { return config_detail::enumName(v); }
 const char* toString(ReplenishStrategy v) { return config_detail::enumName(v); }
+const char* toString(TrackingMethod v) { return config_detail::enumName(v); }
 
 }  // namespace planetary_vo

@@ -59,6 +59,14 @@ struct EnumNames<ReplenishStrategy> {
        {ReplenishStrategy::kRestartBelowMin, "restart_below_min"}}};
 };
 
+template <>
+struct EnumNames<TrackingMethod> {
+  static constexpr std::array<std::pair<TrackingMethod, const char*>, 3> kValues{
+      {{TrackingMethod::kKlt, "klt"},
+       {TrackingMethod::kAnchorAlignment, "anchor_alignment"},
+       {TrackingMethod::kAuto, "auto"}}};
+};
+
 template <class E>
 const char* enumName(E value) {
   for (const auto& [v, name] : EnumNames<E>::kValues)
@@ -99,6 +107,7 @@ void detectorFields(C& c, V& v) {
 
 template <class C, class V>
 void trackerFields(C& c, V& v) {
+  v.enumeration("method", c.method);
   v("window_size_px", c.window_size_px, 3, 255);
   v("pyramid_levels", c.pyramid_levels, 0, 10);
   v("min_eigen_threshold", c.min_eigen_threshold, 0.0, 1.0);
@@ -110,12 +119,15 @@ void trackerFields(C& c, V& v) {
   v.enumeration("replenish_strategy", c.replenish_strategy);
   v("replenish_cell_min_features", c.replenish_cell_min_features, 1, 10000);
   v("min_tracked_features", c.min_tracked_features, 0, 100000);
+  v("replenish_min_cells", c.replenish_min_cells, 1, 4096);
   v("anchor_refinement", c.anchor_refinement);
   v("anchor_patch_px", c.anchor_patch_px, 3, 63);
   v("anchor_max_shift_px", c.anchor_max_shift_px, 0.0, 100.0);
   v("anchor_max_residual_ratio", c.anchor_max_residual_ratio, 0.0, 10.0);
   v("anchor_max_age_frames", c.anchor_max_age_frames, 1, 100000);
   v("anchor_warp_min_tracks", c.anchor_warp_min_tracks, 0, 100000);
+  v("alignment_max_residual_ratio", c.alignment_max_residual_ratio, 0.0, 10.0);
+  v("alignment_previous_fallback", c.alignment_previous_fallback);
 }
 
 template <class C, class V>

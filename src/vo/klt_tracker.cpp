@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 namespace planetary_vo {
@@ -31,17 +33,22 @@ void KltTracker::setConfig(const TrackerConfig& config) {
   criteria_ = cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, config.max_iterations,
                                config.epsilon_px);
   win_size_ = cv::Size(config.window_size_px, config.window_size_px);
-  if (!config_.anchor_refinement) anchors_.clear();
+  if (config.method != TrackingMethod::kAuto) active_ = config.method;
+  if (!usesAnchors()) anchors_.clear();
   // The previous pyramid was padded for the old window and has the old number of levels; LK asserts a padding
   // of at least the window. Level 0 is the previous image itself.
   if (pyramid_changed && has_previous_ && !prev_pyramid_.empty()) {
     const cv::Mat previous = prev_pyramid_[0].clone();
-    buildPyramid(previous, &prev_pyramid_);
+    buildPyramid(previous, prev_plain_, &prev_pyramid_);
   }
 }
 
 void KltTracker::reset() {
   tracks_.clear();
+  prediction_error_px_ = -1.0;
+  planar_frames_ = non_planar_frames_ = 0;
+  if (config_.method == TrackingMethod::kAuto) active_ = TrackingMethod::kKlt;
+  homographies_.clear();
   anchors_.clear();
   has_previous_ = false;
 }
@@ -65,7 +72,22 @@ int KltTracker::removeTracks(const std::vector<uint64_t>& ids) {
   return static_cast<int>(before - kept);
 }
 
-void KltTracker::buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const {
+void KltTracker::buildPyramid(const cv::Mat& gray, bool plain, std::vector<cv::Mat>* pyramid) const {
+  if (plain) {
+    // A plain 2:1 pyramid: the patches carry their own gradients, so no derivative images are needed. The
+    // levels' buffers are reused frame after frame (same size).
+    const size_t levels = static_cast<size_t>(config_.pyramid_levels) + 1;
+    pyramid->resize(levels);
+    gray.copyTo((*pyramid)[0]);
+    for (size_t l = 1; l < levels; ++l) {
+      if ((*pyramid)[l - 1].cols < 2 || (*pyramid)[l - 1].rows < 2) {
+        pyramid->resize(l);
+        break;
+      }
+      cv::pyrDown((*pyramid)[l - 1], (*pyramid)[l]);
+    }
+    return;
+  }
   // withDerivatives: LK then reuses the Scharr derivatives instead of recomputing them in both passes.
   // tryReuseInputImage = false: the pyramid owns a copy, so the caller may overwrite its image buffer.
   cv::buildOpticalFlowPyramid(gray, *pyramid, win_size_, config_.pyramid_levels, true, cv::BORDER_REFLECT_101,
@@ -162,8 +184,219 @@ void KltTracker::addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t f
 
 void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
   anchors_[i].patch = makeAnchorPatch(gray, tracks_[i].px, config_.anchor_patch_px);
+  anchors_[i].coarse.clear();
+  if (anchorAlignment()) {
+    // curr_pyramid_ is the pyramid of `gray` here (track() swaps the pyramids only at its end).
+    float scale = 1.f;
+    for (size_t l = 1; l < curr_pyramid_.size(); ++l) {
+      scale *= 0.5f;
+      anchors_[i].coarse.push_back(
+          makeAnchorPatch(curr_pyramid_[l], tracks_[i].px * scale, config_.anchor_patch_px));
+    }
+  }
   anchors_[i].frame = frame_index_;
   anchors_[i].px = tracks_[i].px;
+}
+
+cv::Matx22f KltTracker::chainedWarp(int64_t frame, const cv::Point2f& px) const {
+  for (const FrameHomography& h : homographies_) {
+    if (h.frame != frame) continue;
+    const cv::Matx33d& H = h.H_to_last;
+    const double x = px.x, y = px.y;
+    const double w = H(2, 0) * x + H(2, 1) * y + H(2, 2);
+    if (!(std::abs(w) > 1e-9)) break;
+    const double u = (H(0, 0) * x + H(0, 1) * y + H(0, 2)) / w;
+    const double v = (H(1, 0) * x + H(1, 1) * y + H(1, 2)) / w;
+    const cv::Matx22d J((H(0, 0) - u * H(2, 0)) / w, (H(0, 1) - u * H(2, 1)) / w, (H(1, 0) - v * H(2, 0)) / w,
+                        (H(1, 1) - v * H(2, 1)) / w);
+    const double det = cv::determinant(J);
+    // A plausible image motion of a patch: no mirror, at most 4x zoom either way.
+    if (!(det > 1.0 / 16.0 && det < 16.0)) break;
+    return cv::Matx22f(J);
+  }
+  return anchorWarp(frame);
+}
+
+double KltTracker::updateHomographyChain() {
+  fit_from_.clear();
+  fit_to_.clear();
+  for (const FeatureTrack& t : tracks_) {
+    if (t.age_frames == 0) continue;
+    fit_from_.push_back(t.prev_px);
+    fit_to_.push_back(t.px);
+  }
+  cv::Matx33d H_prev_to_this;
+  bool ok = false;
+  double share = -1.0;
+  if (fit_from_.size() >= 12) {
+    const cv::Mat H = cv::findHomography(fit_from_, fit_to_, cv::RANSAC, 1.0, fit_mask_, 200, 0.99);
+    if (!H.empty()) {
+      int inliers = 0;
+      for (const uchar m : fit_mask_) inliers += m ? 1 : 0;
+      // Half the tracks on one homography: the view is close enough to a plane for its Jacobian to be the
+      // patches' warp. A 3D scene (a car's street) fails this and keeps the per-anchor-frame linear maps.
+      share = static_cast<double>(inliers) / static_cast<double>(fit_from_.size());
+      ok = share >= kAutoPlaneShare;
+      H.convertTo(cv::Mat(3, 3, CV_64F, H_prev_to_this.val), CV_64F);
+    }
+  }
+  if (!ok) {
+    homographies_.clear();
+  } else {
+    // Keep the frames some anchor still refers to.
+    size_t kept = 0;
+    for (size_t k = 0; k < homographies_.size(); ++k) {
+      bool used = false;
+      for (const Anchor& a : anchors_)
+        if (a.frame == homographies_[k].frame) {
+          used = true;
+          break;
+        }
+      if (!used) continue;
+      homographies_[kept] = homographies_[k];
+      homographies_[kept].H_to_last = H_prev_to_this * homographies_[k].H_to_last;
+      ++kept;
+    }
+    homographies_.resize(kept);
+  }
+  return share;
+}
+
+PatchAlignment KltTracker::alignCoarseToFine(const AnchorPatch& fine_patch,
+                                             const std::vector<AnchorPatch>& coarse_patches,
+                                             const cv::Matx22f& warp, cv::Point2f px,
+                                             size_t top_level) const {
+  // Coarse levels only need to bring the feature into the next level's basin.
+  const double coarse_epsilon_px = std::max(config_.epsilon_px, 0.05);
+  // Gauss-Newton may walk far on a texture that repeats; a level may move the feature by at most half a
+  // patch (in that level's pixels), as LK's window bounds its own reach. Farther is not a convergence.
+  const float max_move2 = 0.25f * static_cast<float>(config_.anchor_patch_px * config_.anchor_patch_px);
+  for (size_t l = std::min({top_level, coarse_patches.size(), curr_pyramid_.size() - 1}); l >= 1; --l) {
+    const AnchorPatch& patch = coarse_patches[l - 1];
+    if (!patch.valid()) continue;  // too flat at this resolution: the finer level starts from here
+    const float scale = static_cast<float>(1 << l);
+    const cv::Point2f start = px / scale;
+    const PatchAlignment coarse =
+        alignPatch(patch, curr_pyramid_[l], start, config_.max_iterations, coarse_epsilon_px, warp);
+    const cv::Point2f moved = coarse.px - start;
+    if (coarse.converged && moved.dot(moved) <= max_move2) px = coarse.px * scale;
+  }
+  PatchAlignment fine =
+      alignPatch(fine_patch, curr_pyramid_[0], px, config_.max_iterations, config_.epsilon_px, warp);
+  const cv::Point2f moved = fine.px - px;
+  if (moved.dot(moved) > max_move2) {
+    fine.converged = false;
+    fine.px = px;
+  }
+  return fine;
+}
+
+void KltTracker::lkRescue(const cv::Mat& gray, TrackingResult* result) {
+  result->lk_rescue = true;
+  result->num_lost_lk = result->num_lost_border = result->num_lost_fb = result->num_lost_residual = 0;
+  result->num_realigned = 0;
+  // LK's pyramids of both images; the plain pyramid of this image is kept for the anchors and the next frame.
+  std::swap(curr_pyramid_, rescue_plain_);
+  const cv::Mat previous = prev_pyramid_[0].clone();
+  buildPyramid(previous, false, &prev_pyramid_);
+  prev_plain_ = false;
+  buildPyramid(gray, false, &curr_pyramid_);
+  prev_px_.clear();
+  for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
+  if (config_.predict_flow) predictPositions();
+  trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, result);
+  std::swap(curr_pyramid_, rescue_plain_);
+}
+
+void KltTracker::alignToAnchors(TrackingResult* result) {
+  const size_t n = tracks_.size();
+  keep_.assign(n, 0);
+  curr_px_.resize(n);
+  if (config_.predict_flow) {
+    predictPositions();
+  } else {
+    guess_px_.resize(n);
+    for (size_t i = 0; i < n; ++i) guess_px_[i] = tracks_[i].px;
+  }
+  // Fallback warps (anchor frames the homography chain does not reach): the linear maps fitted to the tracks'
+  // positions in the previous image.
+  warps_.clear();
+  if (config_.anchor_warp_min_tracks > 0) fitAnchorWarps();
+  const float border = static_cast<float>(config_.border_px);
+  const float x_max = static_cast<float>(image_size_.width - 1) - border;
+  const float y_max = static_cast<float>(image_size_.height - 1) - border;
+  const bool can_realign =
+      config_.alignment_previous_fallback && prev_plain_ && prev_pyramid_.size() == curr_pyramid_.size();
+  auto usable = [&](const PatchAlignment& a) {
+    return a.converged && a.residual_ratio <= config_.alignment_max_residual_ratio;
+  };
+  // The coarsest level needed: the prediction missed by prediction_error_px_ (90th percentile, last frame);
+  // twice that must lie within a level's basin of about a quarter patch (2.5 px for 11 px) times its scale.
+  // Level 1 at least; all levels when nothing is known yet. A track that fails from there is tried again from
+  // the top level before anything else.
+  const size_t top_level = curr_pyramid_.size() - 1;
+  size_t start_level = top_level;
+  if (prediction_error_px_ >= 0.0) {
+    const double basin_px = std::max(1.0, 0.25 * config_.anchor_patch_px);
+    start_level = 1;
+    while (start_level < top_level && basin_px * (1 << start_level) < 2.0 * prediction_error_px_)
+      ++start_level;
+    start_level = std::min(start_level, top_level);
+  }
+  miss_px_.clear();
+  for (size_t i = 0; i < n; ++i) {
+    Anchor& anchor = anchors_[i];
+    PatchAlignment found;
+    if (anchor.patch.valid()) {
+      const cv::Matx22f warp = chainedWarp(anchor.frame, anchor.px);
+      found = alignCoarseToFine(anchor.patch, anchor.coarse, warp, guess_px_[i], start_level);
+      if (!usable(found) && start_level < top_level)
+        found = alignCoarseToFine(anchor.patch, anchor.coarse, warp, guess_px_[i], top_level);
+    }
+    if (!usable(found) && can_realign) {
+      // The anchor no longer matches (its view changed too much, or it was too flat): cut the track's patch
+      // in the previous image, where it was found last, and align that one (frame to frame, like LK). On
+      // success it becomes the track's anchor.
+      Anchor previous;
+      previous.patch = makeAnchorPatch(prev_pyramid_[0], tracks_[i].px, config_.anchor_patch_px);
+      if (previous.patch.valid()) {
+        float scale = 1.f;
+        for (size_t l = 1; l < prev_pyramid_.size(); ++l) {
+          scale *= 0.5f;
+          previous.coarse.push_back(
+              makeAnchorPatch(prev_pyramid_[l], tracks_[i].px * scale, config_.anchor_patch_px));
+        }
+        const PatchAlignment again =
+            alignCoarseToFine(previous.patch, previous.coarse, cv::Matx22f::eye(), guess_px_[i], top_level);
+        if (usable(again)) {
+          previous.frame = frame_index_ - 1;
+          previous.px = tracks_[i].px;
+          anchor = std::move(previous);
+          found = again;
+          ++result->num_realigned;
+        }
+      }
+    }
+    curr_px_[i] = found.px;
+    if (!found.converged) {
+      ++result->num_lost_lk;
+    } else if (!(found.px.x >= border && found.px.y >= border && found.px.x <= x_max &&
+                 found.px.y <= y_max)) {
+      ++result->num_lost_border;
+    } else if (!usable(found)) {
+      ++result->num_lost_residual;
+    } else {
+      keep_[i] = 1;
+      miss_px_.push_back(static_cast<float>(cv::norm(found.px - guess_px_[i])));
+    }
+  }
+  if (miss_px_.size() >= 10) {
+    const size_t k90 = miss_px_.size() * 9 / 10;
+    std::nth_element(miss_px_.begin(), miss_px_.begin() + k90, miss_px_.end());
+    prediction_error_px_ = miss_px_[k90];
+  } else {
+    prediction_error_px_ = -1.0;
+  }
 }
 
 void KltTracker::fitAnchorWarps() {
@@ -268,15 +501,43 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
   result.frame_index = ++frame_index_;
   image_size_ = gray.size();
 
-  buildPyramid(gray, &curr_pyramid_);
+  if (config_.method == TrackingMethod::kAuto) {
+    // Anchor alignment while the view is close to a plane (its patches' warps are the homography's), LK in a
+    // 3D scene. Three frames in a row decide, so that one odd frame pair does not flip the method.
+    if (planar_frames_ >= kAutoSwitchFrames) active_ = TrackingMethod::kAnchorAlignment;
+    if (non_planar_frames_ >= kAutoSwitchFrames) active_ = TrackingMethod::kKlt;
+  }
+  if (has_previous_ && !anchorAlignment() && prev_plain_) {
+    // LK needs the previous image's pyramid with its derivatives and padding.
+    const cv::Mat previous = prev_pyramid_[0].clone();
+    buildPyramid(previous, false, &prev_pyramid_);
+    prev_plain_ = false;
+  }
+  buildPyramid(gray, anchorAlignment(), &curr_pyramid_);
   result.pyramid_ms = msSince(t_start);
 
   if (has_previous_ && !tracks_.empty()) {
     const int64 t_lk = cv::getTickCount();
-    prev_px_.clear();
-    for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
-    if (config_.predict_flow) predictPositions();
-    trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, &result);
+    bool rescued = false;
+    if (anchorAlignment()) {
+      anchorNewTracks(gray);  // only after a switch of method: every track has its anchor otherwise
+      alignToAnchors(&result);
+      if (config_.method == TrackingMethod::kAuto && tracks_.size() >= 20) {
+        size_t found = 0;
+        for (const uchar k : keep_) found += k ? 1 : 0;
+        // Most tracks lost at once (frames refused in between, a jolt): the image moved beyond the patches'
+        // reach. LK with its larger window looks for all of them again in this frame.
+        if (2 * found < tracks_.size()) {
+          rescued = true;
+          lkRescue(gray, &result);
+        }
+      }
+    } else {
+      prev_px_.clear();
+      for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
+      if (config_.predict_flow) predictPositions();
+      trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, &result);
+    }
     const bool anchored = !anchors_.empty();
     size_t kept = 0;
     for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -291,13 +552,28 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     tracks_.resize(kept);
     if (anchored) anchors_.resize(kept);
     result.lk_ms = msSince(t_lk);
-    if (config_.anchor_refinement) {
+    if (anchorAlignment()) {
+      // The aligned position is the refined one; the anchor is renewed when it is old (appearance changes).
+      for (size_t i = 0; i < tracks_.size(); ++i)
+        if (rescued || frame_index_ - anchors_[i].frame >= config_.anchor_max_age_frames) reanchor(gray, i);
+    } else if (config_.anchor_refinement) {
       const int64 t_refine = cv::getTickCount();
       refineToAnchors(gray, &result);
       result.refine_ms = msSince(t_refine);
     }
     for (const FeatureTrack& t : tracks_) result.correspondences.push_back(t.id, t.prev_px, t.px);
+    if (anchorAlignment() || config_.method == TrackingMethod::kAuto) {
+      const int64 t_chain = cv::getTickCount();
+      result.plane_share = updateHomographyChain();
+      if (result.plane_share >= 0.0) {
+        const bool planar = result.plane_share >= kAutoPlaneShare;
+        planar_frames_ = planar ? planar_frames_ + 1 : 0;
+        non_planar_frames_ = planar ? 0 : non_planar_frames_ + 1;
+      }
+      result.lk_ms += msSince(t_chain);
+    }
   }
+  result.anchor_alignment = anchorAlignment();
 
   const int64 t_detect = cv::getTickCount();
   if (config_.replenish_strategy == ReplenishStrategy::kRestartBelowMin) {
@@ -331,16 +607,28 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
       result.num_new = static_cast<int>(fresh.size());
     }
   } else {
-    // Phase 1: keep the survivors; cells left with too few of them get new features.
+    // Phase 1: keep the survivors; cells left with too few of them get new features, once at least
+    // replenish_min_cells of them are (the first frame: all are).
     existing_px_.clear();
     for (const FeatureTrack& t : tracks_) existing_px_.push_back(t.px);
-    const std::vector<cv::KeyPoint> fresh =
-        detector_.detect(gray, existing_px_, config_.replenish_cell_min_features);
-    addTracks(fresh, frame_index_);
-    result.num_new = static_cast<int>(fresh.size());
+    cell_counts_.assign(static_cast<size_t>(detector_.numCells()), 0);
+    for (const cv::Point2f& p : existing_px_) {
+      const int cell = detector_.cellIndex(p, gray.size());
+      if (cell >= 0) ++cell_counts_[static_cast<size_t>(cell)];
+    }
+    int short_cells = 0;
+    for (const int c : cell_counts_) short_cells += c < config_.replenish_cell_min_features ? 1 : 0;
+    if (short_cells >= std::min(config_.replenish_min_cells, detector_.numCells())) {
+      const std::vector<cv::KeyPoint> fresh =
+          detector_.detect(gray, existing_px_, config_.replenish_cell_min_features);
+      addTracks(fresh, frame_index_);
+      result.num_new = static_cast<int>(fresh.size());
+    }
   }
   result.detect_ms = msSince(t_detect);
-  if (config_.anchor_refinement) {
+  if (anchorAlignment() || config_.method == TrackingMethod::kAuto)
+    homographies_.push_back(FrameHomography{frame_index_, cv::Matx33d::eye()});
+  if (usesAnchors()) {
     anchorNewTracks(gray);  // they were detected in, or restarted into, this image
   } else {
     anchors_.clear();
@@ -348,6 +636,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
   result.num_tracked = static_cast<int>(result.correspondences.size());
 
   std::swap(prev_pyramid_, curr_pyramid_);
+  prev_plain_ = anchorAlignment();
   has_previous_ = true;
   result.total_ms = msSince(t_start);
   return result;

@@ -83,8 +83,13 @@ PatchAlignment alignPatch(const AnchorPatch& patch, const cv::Mat& gray, const c
 
   float x = start_px.x, y = start_px.y, gain = 0.f, bias = 0.f;  // gain here is (factor - 1)
   const double eps2 = epsilon_px * epsilon_px;
+  const float* values = patch.values.data();
+  const float* grad_x = patch.grad_x.data();
+  const float* grad_y = patch.grad_y.data();
+  const size_t row_step = gray.step[0];
   for (int it = 0; it < max_iterations; ++it) {
     if (!(std::isfinite(x) && std::isfinite(y)) || !fits(gray, x, y, half, 0)) return result;
+    // Sums in float per row (at most a few dozen samples), in double over the rows.
     cv::Vec4d jte(0.0, 0.0, 0.0, 0.0);
     double sum_e2 = 0.0;
     size_t k = 0;
@@ -92,12 +97,24 @@ PatchAlignment alignPatch(const AnchorPatch& patch, const cv::Mat& gray, const c
       // The row's first sample in the new image, then one warp column per step along the row.
       float sx = x - static_cast<float>(patch_half) * warp(0, 0) + static_cast<float>(dy) * warp(0, 1);
       float sy = y - static_cast<float>(patch_half) * warp(1, 0) + static_cast<float>(dy) * warp(1, 1);
+      float r_gx = 0.f, r_gy = 0.f, r_t = 0.f, r_e = 0.f, r_e2 = 0.f;
       for (int dx = -patch_half; dx <= patch_half; ++dx, ++k, sx += warp(0, 0), sy += warp(1, 0)) {
-        const float t = patch.values[k] - patch.mean;
-        const double e = sample(gray, sx, sy) - patch.values[k] - gain * t - bias;
-        jte += cv::Vec4d(patch.grad_x[k], patch.grad_y[k], -t, -1.0) * e;
-        sum_e2 += e * e;
+        const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+        const float ax = sx - static_cast<float>(x0), ay = sy - static_cast<float>(y0);
+        const uchar* row0 = gray.data + static_cast<size_t>(y0) * row_step + static_cast<size_t>(x0);
+        const uchar* row1 = row0 + row_step;
+        const float top = static_cast<float>(row0[0]) + ax * static_cast<float>(row0[1] - row0[0]);
+        const float bottom = static_cast<float>(row1[0]) + ax * static_cast<float>(row1[1] - row1[0]);
+        const float t = values[k] - patch.mean;
+        const float e = top + ay * (bottom - top) - values[k] - gain * t - bias;
+        r_gx += grad_x[k] * e;
+        r_gy += grad_y[k] * e;
+        r_t -= t * e;
+        r_e -= e;
+        r_e2 += e * e;
       }
+      jte += cv::Vec4d(r_gx, r_gy, r_t, r_e);
+      sum_e2 += r_e2;
     }
     const cv::Vec4d delta = -(patch.inverse_normal * jte);
     // The new image's gradient at a sample is the anchor's times the gain factor, through the warp

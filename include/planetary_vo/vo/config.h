@@ -58,8 +58,23 @@ enum class ReplenishStrategy {
   kRestartBelowMin,  ///< thesis 4.4.1: when too few tracks survive, drop all and detect afresh
 };
 
+/// How the tracker finds each track in a new image.
+enum class TrackingMethod {
+  kKlt,  ///< pyramidal LK frame to frame (thesis 4.4.3), forward-backward check, optional anchor refinement
+  /// No frame-to-frame LK: each track's anchor patch, cut at every pyramid level, is aligned coarse to fine
+  /// from the predicted position (SVO's feature alignment used as the tracker). No Scharr pyramid, no
+  /// backward pass; the anchor residual is the consistency check.
+  kAnchorAlignment,
+  /// anchor_alignment while the view is close to a plane (at least half the tracks on one homography between
+  /// consecutive images, three frames in a row), klt otherwise (a 3D scene such as a street); starts with
+  /// klt.
+  kAuto,
+};
+
 /// Stage 2: pyramidal Lucas-Kanade tracking (thesis 4.4.3, Table 4.7) with forward-backward check.
 struct TrackerConfig {
+  /// klt (the thesis' LK), anchor_alignment (no LK: faster, and on a plane-like view more accurate) or auto
+  TrackingMethod method = TrackingMethod::kAuto;
   int window_size_px = 21;             ///< LK search window side (Table 4.7: 21x21)
   int pyramid_levels = 3;              ///< LK pyramid levels above full resolution (Table 4.7)
   double min_eigen_threshold = 0.001;  ///< OpenCV minEigThreshold: rejects low-contrast windows (Table 4.7)
@@ -76,6 +91,9 @@ struct TrackerConfig {
   int replenish_cell_min_features =
       1;                           ///< kEmptyCells: a cell holding fewer tracks than this gets new features
   int min_tracked_features = 100;  ///< kRestartBelowMin: restart detection below this many tracks
+  /// kEmptyCells: detect only once at least this many grid cells hold fewer than replenish_cell_min_features
+  /// tracks (1 = whenever one does); fewer, larger detections instead of one for every cell that empties.
+  int replenish_min_cells = 3;
   /// After KLT, align each track's anchor patch (its patch when detected or last re-anchored) in the new
   /// image (patch_alignment.h, SVO's feature alignment), so that its position error does not grow with its
   /// age.
@@ -88,6 +106,13 @@ struct TrackerConfig {
   /// The patch is warped by the rotation and zoom since its anchor frame, fitted to the tracks anchored in
   /// the same frame when there are at least this many; 0 = never warped (translation only).
   int anchor_warp_min_tracks = 8;
+  /// anchor_alignment: a track whose alignment leaves more of its patch's contrast than this (RMS residual /
+  /// patch standard deviation), or does not converge, is looked for again from the previous image; lost when
+  /// that fails too.
+  double alignment_max_residual_ratio = 0.6;
+  /// anchor_alignment: look for a track whose anchor failed with its patch from the previous image (frame to
+  /// frame, like LK), which then becomes its anchor. false: such a track is lost.
+  bool alignment_previous_fallback = true;
 };
 
 enum class MotionModel { kFundamental, kEssential, kHomography, kAuto };
@@ -301,5 +326,6 @@ const char* toString(KeyframeMode v);
 const char* toString(RobustLoss v);
 const char* toString(TrajectoryMode v);
 const char* toString(ReplenishStrategy v);
+const char* toString(TrackingMethod v);
 
 }  // namespace planetary_vo

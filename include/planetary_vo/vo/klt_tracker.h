@@ -23,13 +23,26 @@ struct TrackingResult {
   int num_lost_lk = 0;       ///< LK did not converge or the window was too flat (min eigenvalue)
   int num_lost_border = 0;   ///< tracked to within border_px of the image edge or beyond
   int num_lost_fb = 0;       ///< forward-backward round trip off by more than fb_max_error_px
-  int num_new = 0;           ///< features added this frame (replenishment, first frame or restart)
-  bool restarted = false;    ///< restart_below_min: all tracks were dropped and detection started afresh
-  int num_refined = 0;       ///< anchor refinement: tracks moved to their anchor patch's alignment
-  int num_reanchored = 0;    ///< anchor refinement: alignment failed or was too far from KLT; new anchor
+  /// anchor_alignment: the alignment converged but left more than alignment_max_residual_ratio of the
+  /// patch's contrast (also from the previous image)
+  int num_lost_residual = 0;
+  /// anchor_alignment: tracks whose anchor failed, found again from their patch in the previous image
+  int num_realigned = 0;
+  bool anchor_alignment =
+      false;  ///< this frame was tracked by anchor alignment (the method, or auto's choice)
+  /// auto: anchor alignment found fewer than half of the tracks (the image jumped beyond the patches' reach),
+  /// so LK tracked them all again in this frame; the counts above are LK's.
+  bool lk_rescue = false;
+  /// Share of the tracks on one homography from the previous image (RANSAC, 1 px); -1 when not fitted
+  /// (method klt, or too few tracks). auto uses anchor alignment while it is at least 0.5.
+  double plane_share = -1.0;
+  int num_new = 0;         ///< features added this frame (replenishment, first frame or restart)
+  bool restarted = false;  ///< restart_below_min: all tracks were dropped and detection started afresh
+  int num_refined = 0;     ///< anchor refinement: tracks moved to their anchor patch's alignment
+  int num_reanchored = 0;  ///< anchor refinement: alignment failed or was too far from KLT; new anchor
   FrameCorrespondences correspondences;  ///< previous -> current pixels of the tracks carried over
   double pyramid_ms = 0.0;               ///< building the LK pyramid of the new image
-  double lk_ms = 0.0;                    ///< forward and backward LK
+  double lk_ms = 0.0;                    ///< forward and backward LK (anchor_alignment: the alignment)
   double refine_ms = 0.0;                ///< anchor refinement (TrackerConfig::anchor_refinement)
   double detect_ms = 0.0;                ///< replenishment / restart detection
   double total_ms = 0.0;
@@ -41,6 +54,10 @@ struct TrackingResult {
 /// the next frame, for the forward and for the backward pass. The image is copied into the pyramid, so the
 /// caller may reuse its buffer after track() returns. With TrackerConfig::anchor_refinement, each track keeps
 /// the patch it had when anchored (patch_alignment.h) and the KLT position is refined against it.
+///
+/// With TrackingMethod::kAnchorAlignment there is no LK: the pyramid is a plain image pyramid (no Scharr
+/// derivatives, no padding), each track's anchor patch is cut at every level when it is anchored, and a track
+/// is found in a new image by aligning those patches coarse to fine from its predicted position.
 ///
 /// Threading: not thread-safe; one instance per image stream.
 class KltTracker {
@@ -76,7 +93,22 @@ class KltTracker {
   const GridDetector& detector() const { return detector_; }
 
  private:
-  void buildPyramid(const cv::Mat& gray, std::vector<cv::Mat>* pyramid) const;
+  /// plain: a 2:1 image pyramid (anchor alignment); otherwise LK's, with derivatives and padding.
+  void buildPyramid(const cv::Mat& gray, bool plain, std::vector<cv::Mat>* pyramid) const;
+  /// Whether this frame is tracked by anchor alignment (the method, or auto's choice).
+  bool anchorAlignment() const { return active_ == TrackingMethod::kAnchorAlignment; }
+  /// Whether the tracks keep anchor patches (refinement, or anchor alignment where they are the tracker).
+  bool usesAnchors() const { return config_.anchor_refinement || config_.method != TrackingMethod::kKlt; }
+  /// anchor_alignment: finds every live track in curr_pyramid_; fills keep_, curr_px_ and the losses.
+  void alignToAnchors(TrackingResult* result);
+  /// auto: tracks every live track again with LK (previous and current LK pyramids built for it); fills
+  /// keep_, curr_px_ and the losses. curr_pyramid_ stays the plain pyramid.
+  void lkRescue(const cv::Mat& gray, TrackingResult* result);
+  /// Aligns a patch given at full resolution and at levels 1, 2, ... in curr_pyramid_, coarse to fine from
+  /// `px` (full-resolution pixels), starting at `top_level` (or the coarsest level there is).
+  PatchAlignment alignCoarseToFine(const AnchorPatch& fine_patch,
+                                   const std::vector<AnchorPatch>& coarse_patches, const cv::Matx22f& warp,
+                                   cv::Point2f px, size_t top_level) const;
   /// Forward LK prev -> curr, then backward; fills status_ (true = keep) and curr_px_, counting the losses.
   /// With `guess_px`, LK starts there (and the backward pass at curr minus the guessed motion).
   void trackPoints(const std::vector<cv::Point2f>& prev_px, const std::vector<cv::Point2f>* guess_px,
@@ -90,12 +122,26 @@ class KltTracker {
   void fitAnchorWarps();
   /// The fitted warp of an anchor frame; identity when it has none.
   cv::Matx22f anchorWarp(int64_t frame) const;
+  /// The warp of the patch anchored at `px` in `frame` into the last image, the Jacobian
+  /// of the chained frame-to-frame homographies there; anchorWarp(frame) when the chain does not reach it.
+  cv::Matx22f chainedWarp(int64_t frame, const cv::Point2f& px) const;
+  /// Fits the homography from the previous image to this one on the kept tracks and chains it onto every
+  /// frame that still holds an anchor (the chain is dropped when the view is not close to a plane). Returns
+  /// the share of the tracks on it, -1 when there were too few tracks to fit one.
+  double updateHomographyChain();
   /// Anchors the tracks appended since the last call (detection, restart) in `gray`.
   void anchorNewTracks(const cv::Mat& gray);
   /// A new anchor for track i at its current position in `gray`.
   void reanchor(const cv::Mat& gray, size_t i);
 
+  static constexpr double kAutoPlaneShare =
+      0.5;                                     ///< share of the tracks on one homography: a plane-like view
+  static constexpr int kAutoSwitchFrames = 3;  ///< auto switches after this many frames in a row
+
   TrackerConfig config_;
+  TrackingMethod active_ = TrackingMethod::kKlt;   ///< the method of the frame being tracked
+  int planar_frames_ = 0, non_planar_frames_ = 0;  ///< auto: frames in a row with / without a plane-like view
+  bool prev_plain_ = false;                        ///< prev_pyramid_ is a plain pyramid (anchor alignment)
   GridDetector detector_;
   cv::TermCriteria criteria_;
   cv::Size win_size_;
@@ -104,6 +150,7 @@ class KltTracker {
   /// Parallel to tracks_ (anchor refinement): the anchor patch and the frame it was cut from.
   struct Anchor {
     AnchorPatch patch;
+    std::vector<AnchorPatch> coarse;  ///< anchor_alignment: the patch at pyramid levels 1, 2, ...
     int64_t frame = 0;
     cv::Point2f px;  ///< where the patch was cut
   };
@@ -117,15 +164,29 @@ class KltTracker {
     cv::Matx22f warp = cv::Matx22f::eye();
   };
   std::vector<AnchorWarp> warps_;
+  /// anchor_alignment: per frame, the homography from that image to the last one (terrain seen from above is
+  /// close to a plane, so its Jacobian is the local zoom, rotation and perspective foreshortening of a
+  /// patch).
+  struct FrameHomography {
+    int64_t frame = 0;
+    cv::Matx33d H_to_last = cv::Matx33d::eye();
+  };
+  std::vector<FrameHomography> homographies_;
+  std::vector<cv::Point2f> fit_from_, fit_to_;
+  std::vector<uchar> fit_mask_;
   uint64_t next_id_ = 0;
   int64_t frame_index_ = -1;
   bool has_previous_ = false;
   cv::Size image_size_;
 
   // Reused buffers: the pyramids swap roles every frame, so their levels are allocated once.
-  std::vector<cv::Mat> prev_pyramid_, curr_pyramid_;
+  std::vector<cv::Mat> prev_pyramid_, curr_pyramid_, rescue_plain_;
   std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_, guess_px_;
-  std::vector<float> flow_scratch_;
+  std::vector<float> flow_scratch_, miss_px_;
+  std::vector<int> cell_counts_;
+  /// anchor_alignment: 90th percentile of the distance between predicted and aligned positions in the last
+  /// frame (sets the coarsest pyramid level needed); -1 when unknown.
+  double prediction_error_px_ = -1.0;
   std::vector<uchar> lk_status_, back_status_, keep_;
   std::vector<float> lk_error_;
 };

@@ -69,6 +69,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_FALSE(c.detector.redistribute_budget);
   EXPECT_TRUE(c.detector.compute_descriptors);
 
+  EXPECT_EQ(c.tracker.method, TrackingMethod::kKlt);
   EXPECT_EQ(c.tracker.window_size_px, 15);
   EXPECT_EQ(c.tracker.pyramid_levels, 4);
   EXPECT_DOUBLE_EQ(c.tracker.min_eigen_threshold, 0.0005);
@@ -80,12 +81,15 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.tracker.replenish_strategy, ReplenishStrategy::kRestartBelowMin);
   EXPECT_EQ(c.tracker.replenish_cell_min_features, 2);
   EXPECT_EQ(c.tracker.min_tracked_features, 80);
+  EXPECT_EQ(c.tracker.replenish_min_cells, 2);
   EXPECT_FALSE(c.tracker.anchor_refinement);
   EXPECT_EQ(c.tracker.anchor_patch_px, 7);
   EXPECT_DOUBLE_EQ(c.tracker.anchor_max_shift_px, 0.5);
   EXPECT_DOUBLE_EQ(c.tracker.anchor_max_residual_ratio, 0.2);
   EXPECT_EQ(c.tracker.anchor_max_age_frames, 12);
   EXPECT_EQ(c.tracker.anchor_warp_min_tracks, 5);
+  EXPECT_DOUBLE_EQ(c.tracker.alignment_max_residual_ratio, 0.5);
+  EXPECT_FALSE(c.tracker.alignment_previous_fallback);
 
   EXPECT_EQ(c.motion.model, MotionModel::kHomography);
   EXPECT_DOUBLE_EQ(c.motion.ransac_confidence, 0.999);

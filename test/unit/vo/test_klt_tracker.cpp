@@ -24,6 +24,15 @@ using test::warpedPair;
 
 const cv::Size kSize(640, 480);
 
+/// The LK tracker these tests are about (the default method is auto: anchor alignment on a plane-like view,
+/// test_anchor_alignment.cpp), detecting in every frame where a cell empties.
+TrackerConfig lk() {
+  TrackerConfig c;
+  c.method = TrackingMethod::kKlt;
+  c.replenish_min_cells = 1;
+  return c;
+}
+
 struct ErrorStats {
   double max_px = 0.0, mean_px = 0.0;
   int count = 0;
@@ -56,8 +65,8 @@ ErrorStats trackingErrors(const FrameCorrespondences& c, const ViewPair& views, 
 }
 
 /// `mean_max_px`: the mean error allowed over the interior points.
-void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed,
-                            const TrackerConfig& config = TrackerConfig(), double mean_max_px = 0.02) {
+void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed, const TrackerConfig& config = lk(),
+                            double mean_max_px = 0.02) {
   const ViewPair views = warpedPair(kSize, A, seed);
   KltTracker tracker{config, DetectorConfig()};
   const TrackingResult first = tracker.track(views.first);
@@ -76,7 +85,7 @@ void expectAccurateTracking(const cv::Matx23d& A, uint64_t seed,
   EXPECT_LT(e.max_px, 0.1);
   EXPECT_LT(e.mean_px, mean_max_px);
   // Near the border the accuracy is lower, but the forward-backward check still bounds it.
-  EXPECT_LT(trackingErrors(second.correspondences, views, false).max_px, TrackerConfig().fb_max_error_px);
+  EXPECT_LT(trackingErrors(second.correspondences, views, false).max_px, lk().fb_max_error_px);
 }
 
 TEST(KltTracker, SubPixelTranslationIsRecovered) { expectAccurateTracking(translation(1.37, -0.62), 11); }
@@ -93,12 +102,12 @@ TEST(KltTracker, SmallRotationAndScaleAreRecovered) {
   // edge (larger inter-frame rotations are what the pyramid-level prediction of a later stage is for).
   cv::Matx23d A = cv::getRotationMatrix2D(centre, 0.4, 1.003);
   A(0, 2) += 0.4;
-  TrackerConfig klt_only;
+  TrackerConfig klt_only = lk();
   klt_only.anchor_refinement = false;
   expectAccurateTracking(A, 13, klt_only);
   // The anchor refinement's 11 px translation-only patch is a little less accurate on one deformed step
   // (measured: mean 0.022 px against LK's 0.018); what it gains is on long tracks (test_patch_alignment.cpp).
-  expectAccurateTracking(A, 13, TrackerConfig(), 0.03);
+  expectAccurateTracking(A, 13, lk(), 0.03);
 }
 
 TEST(KltTracker, AConfigChangeBetweenFramesAppliesToTheLiveTracks) {
@@ -106,14 +115,14 @@ TEST(KltTracker, AConfigChangeBetweenFramesAppliesToTheLiveTracks) {
   // Going back from a light step (11 px, no pyramid) to the default, the previous image's pyramid must be
   // rebuilt: LK takes its levels from the previous pyramid, and an 18 px motion needs them.
   const ViewPair views = warpedPair(kSize, translation(15.3, -9.8), 12);
-  TrackerConfig light;
+  TrackerConfig light = lk();
   light.window_size_px = 11;
   light.pyramid_levels = 0;
   light.anchor_refinement = false;
   KltTracker tracker{light, DetectorConfig()};
   ASSERT_EQ(tracker.track(views.first).num_new, 300);
-  tracker.setConfig(TrackerConfig());
-  EXPECT_EQ(tracker.config(), TrackerConfig());
+  tracker.setConfig(lk());
+  EXPECT_EQ(tracker.config(), lk());
   const TrackingResult second = tracker.track(views.second);
   EXPECT_GE(second.num_tracked, 280) << "lk " << second.num_lost_lk << " border " << second.num_lost_border
                                      << " fb " << second.num_lost_fb;
@@ -130,7 +139,7 @@ TEST(KltTracker, AConfigChangeBetweenFramesAppliesToTheLiveTracks) {
 /// turning camera), tracked with one pyramid level so that LK alone reaches only about 10 px on this texture.
 std::vector<int> trackedPerStep(bool predict_flow, const std::vector<double>& shift_px,
                                 double* worst_error_px) {
-  TrackerConfig config;
+  TrackerConfig config = lk();
   config.pyramid_levels = 1;
   config.predict_flow = predict_flow;
   KltTracker tracker(config, DetectorConfig());
@@ -191,7 +200,7 @@ TEST(KltTracker, ForwardBackwardCheckRemovesTracksInAChangedRegion) {
     return wrong;
   };
 
-  TrackerConfig no_fb;
+  TrackerConfig no_fb = lk();
   no_fb.fb_max_error_px = 0.0;
   KltTracker unchecked(no_fb, DetectorConfig());
   unchecked.track(views.first);
@@ -199,7 +208,7 @@ TEST(KltTracker, ForwardBackwardCheckRemovesTracksInAChangedRegion) {
   ASSERT_GT(wrongTracks(r_unchecked), 5) << "precondition: without the check some wrong tracks survive";
   EXPECT_EQ(r_unchecked.num_lost_fb, 0);
 
-  KltTracker checked{TrackerConfig(), DetectorConfig()};
+  KltTracker checked{lk(), DetectorConfig()};
   checked.track(views.first);
   const TrackingResult r = checked.track(views.second);
   // Most wrong tracks fail the round trip. Not all: in uncorrelated texture the coarse pyramid levels, whose
@@ -218,7 +227,7 @@ TEST(KltTracker, ForwardBackwardCheckRemovesTracksInAChangedRegion) {
   int outside_before = 0, outside_after = 0;
   for (size_t i = 0; i < r.correspondences.size(); ++i)
     outside_after += !fringe.contains(r.correspondences.prev_px[i]);
-  KltTracker reference{TrackerConfig(), DetectorConfig()};
+  KltTracker reference{lk(), DetectorConfig()};
   reference.track(views.first);
   for (const FeatureTrack& t : reference.tracks()) outside_before += !fringe.contains(t.px);
   EXPECT_EQ(outside_after, outside_before);
@@ -230,7 +239,7 @@ TEST(KltTracker, SurvivorsKeepTheirIdsAndOnlyEmptiedCellsAreReplenished) {
   const cv::Rect changed(480, 0, 160, 480);
   test::texture(changed.size(), 98).copyTo(views.second(changed));
 
-  KltTracker tracker{TrackerConfig(), DetectorConfig()};
+  KltTracker tracker{lk(), DetectorConfig()};
   tracker.track(views.first);
   std::set<uint64_t> first_ids;
   for (const FeatureTrack& t : tracker.tracks()) first_ids.insert(t.id);
@@ -286,9 +295,48 @@ TEST(KltTracker, SurvivorsKeepTheirIdsAndOnlyEmptiedCellsAreReplenished) {
     EXPECT_LT(cv::norm(again.correspondences.curr_px[i] - again.correspondences.prev_px[i]), 0.05);
 }
 
+TEST(KltTracker, DetectionWaitsUntilEnoughCellsAreShort) {
+  // replenish_min_cells 3: emptying two grid cells detects nothing; the third triggers one detection that
+  // refills all three.
+  const ViewPair views = warpedPair(kSize, translation(0.3, 0.2), 15);
+  TrackerConfig config = lk();
+  config.replenish_min_cells = 3;
+  KltTracker tracker{config, DetectorConfig()};
+  ASSERT_EQ(tracker.track(views.first).num_new, 300);
+  const GridDetector& grid = tracker.detector();
+  auto emptyCell = [&](int cell) {
+    std::vector<uint64_t> ids;
+    for (const FeatureTrack& t : tracker.tracks())
+      if (grid.cellIndex(t.px, kSize) == cell) ids.push_back(t.id);
+    EXPECT_FALSE(ids.empty());
+    tracker.removeTracks(ids);
+  };
+  auto tracksIn = [&](int cell) {
+    int n = 0;
+    for (const FeatureTrack& t : tracker.tracks()) n += grid.cellIndex(t.px, kSize) == cell ? 1 : 0;
+    return n;
+  };
+  emptyCell(9);
+  emptyCell(27);
+  EXPECT_EQ(tracker.track(views.second).num_new, 0) << "two short cells of the three needed";
+  EXPECT_EQ(tracksIn(9), 0);
+  emptyCell(45);
+  const TrackingResult r = tracker.track(views.second);
+  EXPECT_GT(r.num_new, 0);
+  for (const int cell : {9, 27, 45}) EXPECT_GT(tracksIn(cell), 0) << "cell " << cell << " not refilled";
+  // With 1 (the thesis' replenishment), the first emptied cell is refilled in the next frame.
+  KltTracker eager{lk(), DetectorConfig()};
+  eager.track(views.first);
+  std::vector<uint64_t> ids;
+  for (const FeatureTrack& t : eager.tracks())
+    if (grid.cellIndex(t.px, kSize) == 9) ids.push_back(t.id);
+  eager.removeTracks(ids);
+  EXPECT_GT(eager.track(views.second).num_new, 0);
+}
+
 TEST(KltTracker, RestartStrategyRedetectsOnThePreviousImage) {
   const ViewPair views = warpedPair(kSize, translation(3.2, -1.7), 16);
-  TrackerConfig cfg;
+  TrackerConfig cfg = lk();
   cfg.replenish_strategy = ReplenishStrategy::kRestartBelowMin;
   cfg.min_tracked_features = 100;
   KltTracker tracker(cfg, DetectorConfig());
@@ -323,7 +371,7 @@ TEST(KltTracker, RestartStrategyRedetectsOnThePreviousImage) {
 
 TEST(KltTracker, CallerMayReuseItsImageBuffer) {
   const ViewPair views = warpedPair(kSize, translation(1.1, 0.7), 17);
-  KltTracker tracker{TrackerConfig(), DetectorConfig()};
+  KltTracker tracker{lk(), DetectorConfig()};
   // One buffer with a border, as a camera driver's ring buffer might hand out: overwrite it between frames.
   // The 64 px border is wide enough for OpenCV to build the pyramid in place if the tracker allowed it.
   cv::Mat buffer(kSize.height + 128, kSize.width + 128, CV_8U, cv::Scalar(0));
@@ -337,7 +385,7 @@ TEST(KltTracker, CallerMayReuseItsImageBuffer) {
 }
 
 TEST(KltTracker, RejectsBadImagesAndSizeChangesUntilReset) {
-  KltTracker tracker{TrackerConfig(), DetectorConfig()};
+  KltTracker tracker{lk(), DetectorConfig()};
   EXPECT_THROW(tracker.track(cv::Mat()), std::invalid_argument);
   EXPECT_THROW(tracker.track(cv::Mat(kSize, CV_8UC3, cv::Scalar::all(0))), std::invalid_argument);
   tracker.track(test::texture(kSize, 18));

@@ -27,7 +27,7 @@ cv::Mat shifted(double dx, double dy, uint64_t seed, double gain = 1.0, double b
                 double noise_sigma = 0.0, cv::RNG* rng = nullptr) {
   cv::Mat image = planeWaveTexture(kSize, seed, cv::Matx23d(1, 0, -dx, 0, 1, -dy));
   image = (image - 128.0) * gain + 128.0 + bias;
-  if (noise_sigma > 0.0) {
+  if (noise_sigma > 0.0 && rng != nullptr) {
     cv::Mat noise(kSize, CV_32F);
     rng->fill(noise, cv::RNG::NORMAL, 0.0, noise_sigma);
     image += noise;
@@ -102,6 +102,8 @@ cv::Mat moved(double scale, double dx, double dy, uint64_t seed, double noise_si
 double longTrackRmsError(bool anchor_refinement, double zoom_per_frame, int* num_long_tracks,
                          int warp_min_tracks = TrackerConfig().anchor_warp_min_tracks) {
   TrackerConfig config;
+  config.method = TrackingMethod::kKlt;  // LK with and without the refinement (anchor alignment alone:
+                                         // test_anchor_alignment.cpp)
   config.anchor_refinement = anchor_refinement;
   config.anchor_warp_min_tracks = warp_min_tracks;
   DetectorConfig detector;
@@ -139,16 +141,17 @@ double longTrackRmsError(bool anchor_refinement, double zoom_per_frame, int* num
 }
 
 TEST(KltTracker, AnchorRefinementKeepsLongTracksOnTheirPoints) {
-  // Zooming in (a descent): KLT's frame-to-frame errors no longer average out, and a long track wanders off its
-  // point; aligned against its warped anchor it stays much closer (measured: 0.714 vs 0.161 px at 0.6 % per
-  // frame, 0.332 vs 0.100 px at 0.3 %). Without zoom, both stay within noise (0.036 vs 0.042 px).
+  // Zooming in (a descent): KLT's frame-to-frame errors no longer average out, and a long track wanders off
+  // its point; aligned against its warped anchor it stays much closer (measured: 0.714 vs 0.161 px at 0.6 %
+  // per frame, 0.332 vs 0.100 px at 0.3 %). Without zoom, both stay within noise (0.036 vs 0.042 px).
   for (const double zoom : {1.0, 1.003, 1.006}) {
     int n_klt = 0, n_anchor = 0;
     const double klt = longTrackRmsError(false, zoom, &n_klt);
     const double anchored = longTrackRmsError(true, zoom, &n_anchor);
-    std::printf("zoom %.3f/frame, after 39 frames: KLT alone %.3f px RMS (%d tracks), anchor-refined %.3f px RMS "
-                "(%d tracks)\n",
-                zoom, klt, n_klt, anchored, n_anchor);
+    std::printf(
+        "zoom %.3f/frame, after 39 frames: KLT alone %.3f px RMS (%d tracks), anchor-refined %.3f px RMS "
+        "(%d tracks)\n",
+        zoom, klt, n_klt, anchored, n_anchor);
     ASSERT_GE(n_klt, 80);
     ASSERT_GE(n_anchor, 80);
     if (zoom == 1.0) {
