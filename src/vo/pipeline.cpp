@@ -384,6 +384,8 @@ void Pipeline::trackFeatures(const cv::Mat& gray, FrameResult* result) {
   result->times.klt_ms = tracking.lk_ms;
   result->times.refine_ms = tracking.refine_ms;
   result->times.detect_ms = tracking.detect_ms;
+  result->anchor_alignment = tracking.anchor_alignment;
+  result->lk_rescue = tracking.lk_rescue;
   result->num_new_features = tracking.num_new;
   result->num_tracked = tracking.num_tracked;
 
@@ -626,8 +628,9 @@ void Pipeline::tryInitialise(FrameResult* result) {
       std::string(recovering ? "re-initialised" : "initialised") + " (" + toString(init.motion.model) + ", " +
       std::to_string(init.points_c1.size()) + " points" +
       (init.rival_points > 0 ? ", rival motion " + std::to_string(init.rival_points) : std::string()) +
-      (init.rival_cost_ratio > 0.0 ? " at " + std::to_string(init.rival_cost_ratio).substr(0, 4) + "x the cost"
-                                   : std::string()) +
+      (init.rival_cost_ratio > 0.0
+           ? " at " + std::to_string(init.rival_cost_ratio).substr(0, 4) + "x the cost"
+           : std::string()) +
       (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") +
       scale_note + ")";
   stage_ = PipelineStage::kTracking;

@@ -77,10 +77,14 @@ struct FrameResult {
   bool is_keyframe = false;
 
   int num_new_features = 0;  ///< features detected this frame (replenishment or restart)
-  int num_tracked = 0;       ///< tracks carried over from the previous processed frame
-  int num_inliers = 0;       ///< inliers of the model or PnP that produced the pose
-  int num_map_points = 0;    ///< points in the (windowed) map after this frame
-  int num_keyframes = 0;     ///< keyframes in the window after this frame
+  /// The tracks were found by anchor alignment (tracker.method anchor_alignment, or auto on a plane-like
+  /// view), not by LK; lk_rescue: auto's anchor alignment found fewer than half and LK tracked them again.
+  bool anchor_alignment = false;
+  bool lk_rescue = false;
+  int num_tracked = 0;     ///< tracks carried over from the previous processed frame
+  int num_inliers = 0;     ///< inliers of the model or PnP that produced the pose
+  int num_map_points = 0;  ///< points in the (windowed) map after this frame
+  int num_keyframes = 0;   ///< keyframes in the window after this frame
 
   /// How far the current scale can be trusted to equal the scale of the first map, in [0, 1]: 1 for a map
   /// that has grown continuously from its initialisation, lowered by each re-initialisation (more when the

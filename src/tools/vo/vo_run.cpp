@@ -331,6 +331,7 @@ int main(int argc, char** argv) {
     std::vector<double> tracking_ms, pyramid_ms, klt_ms, refine_ms, detect_ms, motion_ms, mapping_ms, ba_ms,
         total_ms;
     std::array<int, 4> state_counts{};
+    int aligned_frames = 0, rescued_frames = 0;  // tracked by anchor alignment; of those, handed to LK
     int keyframes = 0, processed = 0, max_map_points = 0;
     // Memory after the first tenth of the frames against the end shows whether the windowed map keeps it
     // flat.
@@ -357,6 +358,10 @@ int main(int argc, char** argv) {
       ++processed;
       max_map_points = std::max(max_map_points, r.num_map_points);
       ++state_counts[static_cast<size_t>(r.state)];
+      if (r.processed && !r.input_rejected) {
+        if (r.anchor_alignment) ++aligned_frames;
+        if (r.lk_rescue) ++rescued_frames;
+      }
       keyframes += r.is_keyframe ? 1 : 0;
       tracking_ms.push_back(r.times.tracking_ms);
       pyramid_ms.push_back(r.times.pyramid_ms);
@@ -473,6 +478,10 @@ int main(int argc, char** argv) {
       }
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
+      std::printf(
+          "tracker (%s): anchor alignment in %d frames (%d of them handed to LK: most tracks lost), "
+          "LK in the others\n",
+          toString(config.tracker.method), aligned_frames, rescued_frames);
       if (config.altimeter.enabled || config.imu.enabled) {
         if (metric_from_frame >= 0)
           std::printf("scale: metres from frame %d on\n", metric_from_frame);
