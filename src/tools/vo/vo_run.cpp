@@ -478,10 +478,13 @@ int main(int argc, char** argv) {
       }
       std::printf("states: initialising %d, tracking %d, lost %d, recovered %d\n", state_counts[0],
                   state_counts[1], state_counts[2], state_counts[3]);
-      std::printf(
-          "tracker (%s): anchor alignment in %d frames (%d of them handed to LK: most tracks lost), "
-          "LK in the others\n",
-          toString(config.tracker.method), aligned_frames, rescued_frames);
+      if (aligned_frames == 0)
+        std::printf("tracker (%s): LK in every frame\n", toString(config.tracker.method));
+      else
+        std::printf(
+            "tracker (%s): anchor alignment in %d frames (%d of them tracked again by LK: most "
+            "tracks were lost), LK in the others\n",
+            toString(config.tracker.method), aligned_frames, rescued_frames);
       if (config.altimeter.enabled || config.imu.enabled) {
         if (metric_from_frame >= 0)
           std::printf("scale: metres from frame %d on\n", metric_from_frame);
