@@ -183,7 +183,7 @@ void GridDetector::accept(const cv::Point2f& px) {
 
 std::vector<cv::KeyPoint> GridDetector::detect(const cv::Mat& gray,
                                                const std::vector<cv::Point2f>& existing_px,
-                                               int cell_min_features) {
+                                               int cell_min_features, int min_active_cells) {
   CV_Assert(!gray.empty() && gray.type() == CV_8UC1);
   const int64 t_start = cv::getTickCount();
   const int n_cells = numCells();
@@ -223,6 +223,7 @@ std::vector<cv::KeyPoint> GridDetector::detect(const cv::Mat& gray,
   stats_.budget = std::max(0, static_cast<int>(std::lround(static_cast<double>(config_.num_features) *
                                                            stats_.active_cells / n_cells)) -
                                   existing_in_active);
+  if (stats_.active_cells < std::min(min_active_cells, n_cells)) stats_.budget = 0;  // wait for more cells
   if (stats_.active_cells > 0 && stats_.budget > 0) buildPyramid(gray);
 
   std::vector<cv::KeyPoint> result;

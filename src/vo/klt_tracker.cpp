@@ -182,20 +182,25 @@ void KltTracker::addTracks(const std::vector<cv::KeyPoint>& keypoints, int64_t f
   }
 }
 
-void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
-  anchors_[i].patch = makeAnchorPatch(gray, tracks_[i].px, config_.anchor_patch_px);
-  anchors_[i].coarse.clear();
-  if (anchorAlignment()) {
-    // curr_pyramid_ is the pyramid of `gray` here (track() swaps the pyramids only at its end).
+void KltTracker::cutAnchor(const cv::Mat& image, const std::vector<cv::Mat>* plain_pyramid,
+                           const cv::Point2f& px, int64_t frame, Anchor* anchor) const {
+  anchor->patch = makeAnchorPatch(image, px, config_.anchor_patch_px);
+  anchor->coarse.clear();
+  if (plain_pyramid != nullptr) {
     float scale = 1.f;
-    for (size_t l = 1; l < curr_pyramid_.size(); ++l) {
+    for (size_t l = 1; l < plain_pyramid->size(); ++l) {
       scale *= 0.5f;
-      anchors_[i].coarse.push_back(
-          makeAnchorPatch(curr_pyramid_[l], tracks_[i].px * scale, config_.anchor_patch_px));
+      anchor->coarse.push_back(makeAnchorPatch((*plain_pyramid)[l], px * scale, config_.anchor_patch_px));
     }
   }
-  anchors_[i].frame = frame_index_;
-  anchors_[i].px = tracks_[i].px;
+  anchor->frame = frame;
+  anchor->px = px;
+}
+
+void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
+  // With anchor alignment curr_pyramid_ is the plain pyramid of `gray` here (track() swaps the pyramids only
+  // at its end); LK's pyramid interleaves derivative images, and the refinement needs level 0 only.
+  cutAnchor(gray, anchorAlignment() ? &curr_pyramid_ : nullptr, tracks_[i].px, frame_index_, &anchors_[i]);
 }
 
 cv::Matx22f KltTracker::chainedWarp(int64_t frame, const cv::Point2f& px) const {
@@ -291,20 +296,29 @@ PatchAlignment KltTracker::alignCoarseToFine(const AnchorPatch& fine_patch,
   return fine;
 }
 
+void KltTracker::usePreviousLkPyramid() {
+  if (!prev_plain_) return;
+  const cv::Mat previous = prev_pyramid_[0].clone();
+  buildPyramid(previous, false, &prev_pyramid_);
+  prev_plain_ = false;
+}
+
+void KltTracker::trackAllWithLk(TrackingResult* result) {
+  prev_px_.clear();
+  for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
+  if (config_.predict_flow) predictPositions();
+  trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, result);
+}
+
 void KltTracker::lkRescue(const cv::Mat& gray, TrackingResult* result) {
   result->lk_rescue = true;
   result->num_lost_lk = result->num_lost_border = result->num_lost_fb = result->num_lost_residual = 0;
   result->num_realigned = 0;
   // LK's pyramids of both images; the plain pyramid of this image is kept for the anchors and the next frame.
   std::swap(curr_pyramid_, rescue_plain_);
-  const cv::Mat previous = prev_pyramid_[0].clone();
-  buildPyramid(previous, false, &prev_pyramid_);
-  prev_plain_ = false;
+  usePreviousLkPyramid();
   buildPyramid(gray, false, &curr_pyramid_);
-  prev_px_.clear();
-  for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
-  if (config_.predict_flow) predictPositions();
-  trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, result);
+  trackAllWithLk(result);
   std::swap(curr_pyramid_, rescue_plain_);
 }
 
@@ -358,19 +372,11 @@ void KltTracker::alignToAnchors(TrackingResult* result) {
       // in the previous image, where it was found last, and align that one (frame to frame, like LK). On
       // success it becomes the track's anchor.
       Anchor previous;
-      previous.patch = makeAnchorPatch(prev_pyramid_[0], tracks_[i].px, config_.anchor_patch_px);
+      cutAnchor(prev_pyramid_[0], &prev_pyramid_, tracks_[i].px, frame_index_ - 1, &previous);
       if (previous.patch.valid()) {
-        float scale = 1.f;
-        for (size_t l = 1; l < prev_pyramid_.size(); ++l) {
-          scale *= 0.5f;
-          previous.coarse.push_back(
-              makeAnchorPatch(prev_pyramid_[l], tracks_[i].px * scale, config_.anchor_patch_px));
-        }
         const PatchAlignment again =
             alignCoarseToFine(previous.patch, previous.coarse, cv::Matx22f::eye(), guess_px_[i], top_level);
         if (usable(again)) {
-          previous.frame = frame_index_ - 1;
-          previous.px = tracks_[i].px;
           anchor = std::move(previous);
           found = again;
           ++result->num_realigned;
@@ -507,12 +513,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     if (planar_frames_ >= kAutoSwitchFrames) active_ = TrackingMethod::kAnchorAlignment;
     if (non_planar_frames_ >= kAutoSwitchFrames) active_ = TrackingMethod::kKlt;
   }
-  if (has_previous_ && !anchorAlignment() && prev_plain_) {
-    // LK needs the previous image's pyramid with its derivatives and padding.
-    const cv::Mat previous = prev_pyramid_[0].clone();
-    buildPyramid(previous, false, &prev_pyramid_);
-    prev_plain_ = false;
-  }
+  if (has_previous_ && !anchorAlignment()) usePreviousLkPyramid();
   buildPyramid(gray, anchorAlignment(), &curr_pyramid_);
   result.pyramid_ms = msSince(t_start);
 
@@ -533,10 +534,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
         }
       }
     } else {
-      prev_px_.clear();
-      for (const FeatureTrack& t : tracks_) prev_px_.push_back(t.px);
-      if (config_.predict_flow) predictPositions();
-      trackPoints(prev_px_, config_.predict_flow ? &guess_px_ : nullptr, &result);
+      trackAllWithLk(&result);
     }
     const bool anchored = !anchors_.empty();
     size_t kept = 0;
@@ -562,7 +560,7 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
       result.refine_ms = msSince(t_refine);
     }
     for (const FeatureTrack& t : tracks_) result.correspondences.push_back(t.id, t.prev_px, t.px);
-    if (anchorAlignment() || config_.method == TrackingMethod::kAuto) {
+    if (keepsHomographyChain()) {
       const int64 t_chain = cv::getTickCount();
       result.plane_share = updateHomographyChain();
       if (result.plane_share >= 0.0) {
@@ -611,23 +609,13 @@ TrackingResult KltTracker::track(const cv::Mat& gray) {
     // replenish_min_cells of them are (the first frame: all are).
     existing_px_.clear();
     for (const FeatureTrack& t : tracks_) existing_px_.push_back(t.px);
-    cell_counts_.assign(static_cast<size_t>(detector_.numCells()), 0);
-    for (const cv::Point2f& p : existing_px_) {
-      const int cell = detector_.cellIndex(p, gray.size());
-      if (cell >= 0) ++cell_counts_[static_cast<size_t>(cell)];
-    }
-    int short_cells = 0;
-    for (const int c : cell_counts_) short_cells += c < config_.replenish_cell_min_features ? 1 : 0;
-    if (short_cells >= std::min(config_.replenish_min_cells, detector_.numCells())) {
-      const std::vector<cv::KeyPoint> fresh =
-          detector_.detect(gray, existing_px_, config_.replenish_cell_min_features);
-      addTracks(fresh, frame_index_);
-      result.num_new = static_cast<int>(fresh.size());
-    }
+    const std::vector<cv::KeyPoint> fresh = detector_.detect(
+        gray, existing_px_, config_.replenish_cell_min_features, config_.replenish_min_cells);
+    addTracks(fresh, frame_index_);
+    result.num_new = static_cast<int>(fresh.size());
   }
   result.detect_ms = msSince(t_detect);
-  if (anchorAlignment() || config_.method == TrackingMethod::kAuto)
-    homographies_.push_back(FrameHomography{frame_index_, cv::Matx33d::eye()});
+  if (keepsHomographyChain()) homographies_.push_back(FrameHomography{frame_index_, cv::Matx33d::eye()});
   if (usesAnchors()) {
     anchorNewTracks(gray);  // they were detected in, or restarted into, this image
   } else {

@@ -54,11 +54,13 @@ class GridDetector {
   ///        min_distance_px. Empty = full detection.
   /// @param cell_min_features a cell holding at least this many existing features is not searched (1 = detect
   ///        only in empty cells).
+  /// @param min_active_cells nothing is detected (nor the pyramid built) unless at least this many cells hold
+  ///        fewer than cell_min_features existing features (or every cell does, on a grid with fewer cells).
   /// @return the new features only, in full-resolution pixels; with compute_descriptors, lastDescriptors()
   /// holds
   ///         one row per returned keypoint.
   std::vector<cv::KeyPoint> detect(const cv::Mat& gray, const std::vector<cv::Point2f>& existing_px = {},
-                                   int cell_min_features = 1);
+                                   int cell_min_features = 1, int min_active_cells = 1);
 
   /// rBRIEF descriptors of the last detect() (32 bytes per row, rows matching the keypoints); empty when
   /// compute_descriptors is off.

@@ -97,6 +97,8 @@ class KltTracker {
   void buildPyramid(const cv::Mat& gray, bool plain, std::vector<cv::Mat>* pyramid) const;
   /// Whether this frame is tracked by anchor alignment (the method, or auto's choice).
   bool anchorAlignment() const { return active_ == TrackingMethod::kAnchorAlignment; }
+  /// Whether the frame-to-frame homographies are fitted: for anchor alignment's warps and auto's choice.
+  bool keepsHomographyChain() const { return anchorAlignment() || config_.method == TrackingMethod::kAuto; }
   /// Whether the tracks keep anchor patches (refinement, or anchor alignment where they are the tracker).
   bool usesAnchors() const { return config_.anchor_refinement || config_.method != TrackingMethod::kKlt; }
   /// anchor_alignment: finds every live track in curr_pyramid_; fills keep_, curr_px_ and the losses.
@@ -104,6 +106,11 @@ class KltTracker {
   /// auto: tracks every live track again with LK (previous and current LK pyramids built for it); fills
   /// keep_, curr_px_ and the losses. curr_pyramid_ stays the plain pyramid.
   void lkRescue(const cv::Mat& gray, TrackingResult* result);
+  /// LK from prev_pyramid_ to curr_pyramid_ for every live track, from its predicted position
+  /// (predict_flow); fills keep_, curr_px_ and the losses.
+  void trackAllWithLk(TrackingResult* result);
+  /// Rebuilds prev_pyramid_ as LK's pyramid (derivatives, padding) when it is a plain one.
+  void usePreviousLkPyramid();
   /// Aligns a patch given at full resolution and at levels 1, 2, ... in curr_pyramid_, coarse to fine from
   /// `px` (full-resolution pixels), starting at `top_level` (or the coarsest level there is).
   PatchAlignment alignCoarseToFine(const AnchorPatch& fine_patch,
@@ -155,6 +162,10 @@ class KltTracker {
     cv::Point2f px;  ///< where the patch was cut
   };
   std::vector<Anchor> anchors_;
+  /// Cuts `anchor`'s patch at `px` (full-resolution pixels) from `image` and, with `plain_pyramid` (the plain
+  /// pyramid of that image), its patches at levels 1, 2, ... for anchor alignment.
+  void cutAnchor(const cv::Mat& image, const std::vector<cv::Mat>* plain_pyramid, const cv::Point2f& px,
+                 int64_t frame, Anchor* anchor) const;
   /// fitAnchorWarps()' sums and result per anchor frame.
   struct AnchorWarp {
     int64_t frame = 0;
@@ -183,7 +194,6 @@ class KltTracker {
   std::vector<cv::Mat> prev_pyramid_, curr_pyramid_, rescue_plain_;
   std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_, guess_px_;
   std::vector<float> flow_scratch_, miss_px_;
-  std::vector<int> cell_counts_;
   /// anchor_alignment: 90th percentile of the distance between predicted and aligned positions in the last
   /// frame (sets the coarsest pyramid level needed); -1 when unknown.
   double prediction_error_px_ = -1.0;

@@ -125,6 +125,23 @@ TrackerConfig method(TrackingMethod m, bool anchor_refinement = true) {
   return c;
 }
 
+/// The plane-wave texture `seed` seen through the affine map H (texture -> image, last row 0 0 1).
+cv::Mat affineView(uint64_t seed, const cv::Matx33d& H) {
+  const cv::Matx33d Hi = H.inv();
+  return planeWaveTexture(kSize, seed,
+                          cv::Matx23d(Hi(0, 0), Hi(0, 1), Hi(0, 2), Hi(1, 0), Hi(1, 1), Hi(1, 2)));
+}
+
+/// A sequence rendered once and tracked by LK alone (no anchor refinement) and by anchor alignment.
+struct LkAndAligned {
+  LongTracks lk, aligned;
+};
+LkAndAligned trackByLkAndByAlignment(Sequence s) {
+  render(&s);
+  return {trackSequence(s, method(TrackingMethod::kKlt, false)),
+          trackSequence(s, method(TrackingMethod::kAnchorAlignment))};
+}
+
 /// Zoom about the centre by `zoom_per_frame` with a drift of about (1, -0.5) px a frame (a nadir descent).
 Sequence zoomingDescent(double zoom_per_frame, int frames) {
   Sequence s;
@@ -135,22 +152,14 @@ Sequence zoomingDescent(double zoom_per_frame, int frames) {
     const double dx = 1.0 * k + 0.3 * std::sin(0.7 * k), dy = -0.5 * k + 0.3 * std::cos(0.9 * k);
     return cv::Matx33d(scale, 0, cx * (1 - scale) + dx, 0, scale, cy * (1 - scale) + dy, 0, 0, 1);
   };
-  s.image = [h = s.H](int k) {
-    const cv::Matx33d Hi = h(k).inv();
-    return withNoise(
-        planeWaveTexture(kSize, 9, cv::Matx23d(Hi(0, 0), Hi(0, 1), Hi(0, 2), Hi(1, 0), Hi(1, 1), Hi(1, 2))),
-        2.0, 100 + k);
-  };
+  s.image = [h = s.H](int k) { return withNoise(affineView(9, h(k)), 2.0, 100 + k); };
   return s;
 }
 
 TEST(AnchorAlignment, LongTracksStayOnTheirPointsWithoutLk) {
   // 40 frames zooming in by 0.6 % a frame: LK frame to frame wanders off the points; anchor alignment
   // (no LK at all) stays on them like the anchor refinement after LK does.
-  Sequence s = zoomingDescent(1.006, 40);
-  render(&s);
-  const LongTracks klt = trackSequence(s, method(TrackingMethod::kKlt, false));
-  const LongTracks aligned = trackSequence(s, method(TrackingMethod::kAnchorAlignment));
+  const auto [klt, aligned] = trackByLkAndByAlignment(zoomingDescent(1.006, 40));
   std::printf(
       "zoom 1.006/frame, 39 frames: LK alone %.3f px RMS (%d tracks), anchor alignment %.3f px RMS "
       "(%d tracks, %d of 39 frames aligned)\n",
@@ -193,10 +202,7 @@ TEST(AnchorAlignment, AnObliquePlanesPatchesAreWarpedByTheChainedHomography) {
   // The zoom differs across the image, so one linear map per anchor frame (what the anchor refinement after
   // LK uses) cannot warp every patch right; the chained frame-to-frame homography's Jacobian at each anchor
   // can.
-  Sequence s = obliqueDescent(30);
-  render(&s);
-  const LongTracks klt = trackSequence(s, method(TrackingMethod::kKlt, false));
-  const LongTracks aligned = trackSequence(s, method(TrackingMethod::kAnchorAlignment));
+  const auto [klt, aligned] = trackByLkAndByAlignment(obliqueDescent(30));
   std::printf(
       "oblique descent, 29 frames: LK alone %.3f px RMS (%d tracks), anchor alignment %.3f px RMS "
       "(%d tracks)\n",
@@ -215,11 +221,8 @@ TEST(AnchorAlignment, ATrackWhoseAnchorNoLongerMatchesIsFoundAgainFromThePreviou
   s.frames = 20;
   s.H = [](int k) { return cv::Matx33d(1, 0, 0.8 * k, 0, 1, -0.4 * k, 0, 0, 1); };
   s.image = [h = s.H](int k) {
-    const cv::Matx33d Hi = h(k).inv();
-    const cv::Matx23d B(Hi(0, 0), Hi(0, 1), Hi(0, 2), Hi(1, 0), Hi(1, 1), Hi(1, 2));
     const double w = k / 19.0;
-    return withNoise((1.0 - w) * planeWaveTexture(kSize, 9, B) + w * planeWaveTexture(kSize, 31, B), 1.0,
-                     300 + k);
+    return withNoise((1.0 - w) * affineView(9, h(k)) + w * affineView(31, h(k)), 1.0, 300 + k);
   };
   render(&s);
   TrackerConfig with = method(TrackingMethod::kAnchorAlignment);
