@@ -129,7 +129,7 @@ def count_lines(path):
 
 # The stages vo_run times per frame (FrameResult::times, frame_result.h), in its order; pyramid, klt, refine and
 # detect are parts of tracking.
-STAGES = ["tracking", "pyramid", "klt", "refine", "detect", "motion", "mapping", "ba", "total"]
+STAGES = ["tracking", "pyramid", "klt", "refine", "detect", "motion", "mapping", "ba", "pose", "total"]
 
 
 def parse_vo_run_log(path):
@@ -433,7 +433,9 @@ def format_tables(results):
                   "(forward and backward LK), refine (anchor refinement) and detect are parts; motion = two-view or PnP + "
                   "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
                   "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
-                  "including any wait for it; total = the whole Pipeline::process() call). Wall clock on this "
+                  "including any wait for it; pose = image in, pose out: from entering process() until the pose is "
+                  "known, before the keyframe decision and mapping; total = the whole Pipeline::process() call). "
+                  "Wall clock on this "
                   f"machine (nproc {os.cpu_count()}), other jobs not excluded:", "",
                   "| sequence | image | sensors | config | " + " | ".join(STAGES) + " |",
                   "|---|---|---|---|" + "---|" * len(STAGES)]

@@ -52,13 +52,19 @@ PARAMETERS = {
     "grid": (["detector.grid_cols", "detector.grid_rows"], [4, 6, 8, 12], False,
              "detection grid, cells per side"),
     "lk_window": (["tracker.window_size_px"], [11, 15, 21, 31], False, "LK window side, px"),
-    "lk_levels": (["tracker.pyramid_levels"], [1, 2, 3, 4], False, "LK pyramid levels above full resolution"),
+    "lk_levels": (["tracker.pyramid_levels"], [1, 2, 3, 4], False, "pyramid levels above full resolution (LK and anchor alignment)"),
     "kf_parallax": (["keyframe.min_parallax_deg"], [1.0, 2.0, 3.0, 5.0, 8.0], False,
                     "keyframe parallax, deg"),
     "kf_track_ratio": (["keyframe.min_track_ratio"], [0.5, 0.7, 0.8, 0.9], False,
                        "keyframe track ratio"),
     "ba_window": (["map.window_keyframes", "bundle_adjustment.window_keyframes"], [5, 7, 10, 15], False,
                   "local map and BA window, keyframes"),
+    # The anchor-alignment tracker's own keys (tracker.method auto / anchor_alignment; LK's window and levels do not
+    # act on the Lunar renders where auto aligns anchors, but the pyramid levels do).
+    "anchor_patch": (["tracker.anchor_patch_px"], [7, 9, 11, 15], False, "anchor patch side, px"),
+    "anchor_age": (["tracker.anchor_max_age_frames"], [5, 10, 20, 40], True, "anchor renewal age, frames"),
+    "align_residual": (["tracker.alignment_max_residual_ratio"], [0.4, 0.5, 0.6, 0.8], False,
+                       "anchor alignment residual ratio"),
 }
 
 

@@ -167,6 +167,8 @@ void pnpFields(C& c, V& v) {
   v("ransac_confidence", c.ransac_confidence, 0.5, 0.999999);
   v("min_inliers", c.min_inliers, 4, 100000);
   v("refine", c.refine);
+  v("from_prediction", c.from_prediction);
+  v("prediction_min_inlier_ratio", c.prediction_min_inlier_ratio, 0.0, 1.0);
 }
 
 template <class C, class V>

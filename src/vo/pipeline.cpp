@@ -341,7 +341,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   if (config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation)
     processUnitStep(&result);
   else
-    processMap(&result);
+    processMap(start, &result);
   fillInertialOutput(&result);
 
   T_world_cam_ = result.T_world_cam;
@@ -358,6 +358,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
   result.map_events = map_.takeEvents();
   result.times.total_ms = msSince(start);
+  if (result.times.pose_ms == 0.0) result.times.pose_ms = result.times.total_ms;
   return result;
 }
 
@@ -374,6 +375,7 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
   result->num_map_points = static_cast<int>(map_.numPoints());
   result->num_keyframes = static_cast<int>(map_.numKeyframes());
   result->times.total_ms = msSince(start);
+  result->times.pose_ms = result->times.total_ms;
   return *result;
 }
 
@@ -513,12 +515,13 @@ void Pipeline::processUnitStep(FrameResult* result) {
 // ---------------------------------------------------------------------------------------------------------------
 // Map mode.
 
-void Pipeline::processMap(FrameResult* result) {
+void Pipeline::processMap(Clock::time_point start, FrameResult* result) {
   if (stage_ != PipelineStage::kTracking) {
     tryInitialise(result);
     return;
   }
   trackAgainstMap(result);
+  result->times.pose_ms = msSince(start);  // the rest (keyframe, map) does not change this frame's pose
   if (result->state == TrackingState::kTracking) {
     maybeInsertKeyframe(result);
   } else if (failed_frames_ >= config_.pipeline.max_consecutive_failed_frames) {
@@ -652,7 +655,8 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
     assoc_.track_ids.push_back(track_ids_[i]);
     assoc_.point_ids.push_back(p->id);
   }
-  const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_);
+  const Pose predicted = predictPose();
+  const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_, &predicted);
   assoc_.inlier.assign(assoc_.size(), 0);
   if (pnp.valid) assoc_.inlier = pnp.inlier_mask;
   for (size_t i = 0; i < assoc_.size(); ++i) {
@@ -682,6 +686,7 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
   result->state = TrackingState::kTracking;
   result->motion = MotionEstimate::kPnp;
   result->num_inliers = pnp.num_inliers;
+  result->pose_from_prediction = pnp.from_prediction;
   snapshotCurrent(timestamp_s_, pnp.T_world_cam, &last_good_);
 }
 

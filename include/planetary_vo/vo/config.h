@@ -172,6 +172,10 @@ struct PnpConfig {
   double ransac_confidence = 0.99;            ///< RANSAC success probability
   int min_inliers = 15;                       ///< fewer inliers -> tracking against the map failed
   bool refine = true;                         ///< Levenberg-Marquardt refinement on the inliers
+  /// Start from the motion model's predicted pose: robust motion-only refinement from it, RANSAC only when
+  /// that leaves fewer than prediction_min_inlier_ratio of the correspondences as inliers. Needs refine.
+  bool from_prediction = true;
+  double prediction_min_inlier_ratio = 0.8;
 };
 
 enum class RobustLoss { kNone, kHuber, kCauchy };

@@ -60,6 +60,10 @@ struct StageTimesMs {
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
   double ba_ms = 0.0;       ///< synchronous bundle adjustment, or applying an asynchronous result
   double total_ms = 0.0;    ///< the whole process() call
+  /// Image in, pose out: from entering process() until this frame's pose is known (input checks, tracking,
+  /// applying the background bundle adjustment or waiting for it, motion). Tracking against the map: before
+  /// the keyframe decision and mapping, which follow within the same call; otherwise the whole call.
+  double pose_ms = 0.0;
 };
 
 /// Per-frame output of Pipeline::process().
@@ -81,6 +85,9 @@ struct FrameResult {
   /// view), not by LK; lk_rescue: auto's anchor alignment found fewer than half and LK tracked them again.
   bool anchor_alignment = false;
   bool lk_rescue = false;
+  /// The pose against the map was refined from the motion model's prediction without RANSAC
+  /// (pnp.from_prediction; pnp_tracker.h).
+  bool pose_from_prediction = false;
   int num_tracked = 0;     ///< tracks carried over from the previous processed frame
   int num_inliers = 0;     ///< inliers of the model or PnP that produced the pose
   int num_map_points = 0;  ///< points in the (windowed) map after this frame

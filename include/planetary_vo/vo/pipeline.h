@@ -174,7 +174,8 @@ class Pipeline {
   void matchToCurrent(const FrameSnapshot& ref);
 
   void processUnitStep(FrameResult* result);
-  void processMap(FrameResult* result);
+  /// @param start when process() was entered: the pose's latency (times.pose_ms) is measured from it.
+  void processMap(std::chrono::steady_clock::time_point start, FrameResult* result);
   void tryInitialise(FrameResult* result);
   void trackAgainstMap(FrameResult* result);
   void startRecovery();

@@ -1,9 +1,12 @@
 #pragma once
 /// @file pnp_tracker.h
 /// Stage 5: the pose of a frame from its live tracks that carry map points (3D-2D correspondences by track
-/// id): EPnP in RANSAC with Levenberg-Marquardt on the inliers (geometry/pnp_solver.h), then a motion-only
-/// robust refinement over all correspondences (Ceres, bundle_adjuster.h refinePose) whose final reprojection
-/// errors decide the inliers.
+/// id). With a predicted pose (pnp.from_prediction), a motion-only robust refinement over all correspondences
+/// starts from it (geometry/pose_gauss_newton.h); when its final reprojection errors leave at least
+/// pnp.prediction_min_inlier_ratio of the correspondences as inliers, that is the pose, with no RANSAC (SVO's
+/// sparse image alignment plays this part there). Otherwise, or without a prediction: EPnP in RANSAC with
+/// Levenberg-Marquardt on the inliers (geometry/pnp_solver.h), then the same refinement from that pose. The
+/// refinement's final reprojection errors decide the inliers.
 
 #include <cstdint>
 #include <string>
@@ -25,6 +28,7 @@ struct PnpTrackResult {
   int num_points = 0;
   int num_inliers = 0;
   double reprojection_rms_px = 0.0;  ///< over the inliers
+  bool from_prediction = false;      ///< posed from the prediction, without RANSAC
 };
 
 /// Frame-to-map tracker. Not thread-safe (reuses buffers); one per pipeline.
@@ -35,11 +39,16 @@ class PnpTracker {
   /// section).
   PnpTracker(const PnpConfig& config, const BundleAdjustmentConfig& refinement);
 
-  /// @param p_world map points; @param px their ideal pixels in this frame; @param K intrinsics.
+  /// @param p_world map points; @param px their ideal pixels in this frame; @param K intrinsics;
+  /// @param T_world_cam_predicted where the frame is expected (motion model), or null: RANSAC only.
   PnpTrackResult track(const std::vector<Eigen::Vector3d>& p_world, const std::vector<Eigen::Vector2d>& px,
-                       const Eigen::Matrix3d& K);
+                       const Eigen::Matrix3d& K, const Pose* T_world_cam_predicted = nullptr);
 
  private:
+  /// Robust refinement from T_cam_world, then its inliers; false when too few.
+  bool refineAndScore(Pose T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
+                      const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K, PnpTrackResult* result) const;
+
   PnpConfig config_;
   BundleAdjustmentConfig refinement_;
   std::vector<cv::Point2d> px_cv_;

@@ -329,9 +329,10 @@ int main(int argc, char** argv) {
     }
     Trajectory trajectory;
     std::vector<double> tracking_ms, pyramid_ms, klt_ms, refine_ms, detect_ms, motion_ms, mapping_ms, ba_ms,
-        total_ms;
+        pose_ms, total_ms;
     std::array<int, 4> state_counts{};
     int aligned_frames = 0, rescued_frames = 0;  // tracked by anchor alignment; of those, handed to LK
+    int pnp_frames = 0, predicted_frames = 0;    // posed against the map; of those, without RANSAC
     int keyframes = 0, processed = 0, max_map_points = 0;
     // Memory after the first tenth of the frames against the end shows whether the windowed map keeps it
     // flat.
@@ -362,6 +363,10 @@ int main(int argc, char** argv) {
         if (r.anchor_alignment) ++aligned_frames;
         if (r.lk_rescue) ++rescued_frames;
       }
+      if (r.motion == MotionEstimate::kPnp) {
+        ++pnp_frames;
+        if (r.pose_from_prediction) ++predicted_frames;
+      }
       keyframes += r.is_keyframe ? 1 : 0;
       tracking_ms.push_back(r.times.tracking_ms);
       pyramid_ms.push_back(r.times.pyramid_ms);
@@ -371,6 +376,7 @@ int main(int argc, char** argv) {
       motion_ms.push_back(r.times.motion_ms);
       mapping_ms.push_back(r.times.mapping_ms);
       ba_ms.push_back(r.times.ba_ms);
+      pose_ms.push_back(r.times.pose_ms);
       total_ms.push_back(r.times.total_ms);
       ++frames_at_step[static_cast<size_t>(cpu_budget.step())];
       if (const std::optional<VoConfig> next = cpu_budget.observe(r.times.total_ms * options.cpu_slowdown)) {
@@ -454,8 +460,9 @@ int main(int argc, char** argv) {
                   dataset.camera().height(), toString(config.pipeline.trajectory_mode), processed, keyframes,
                   trajectory.size(), options.output_path.c_str());
       std::printf("%-10s %10s %10s\n", "stage", "median_ms", "p99_ms");
-      // The tracking stage's parts are indented below it (their medians need not add up to its median).
-      const std::array<std::pair<const char*, const std::vector<double>*>, 9> stages{
+      // The tracking stage's parts are indented below it (their medians need not add up to its median). pose:
+      // image in, pose out (FrameResult::times.pose_ms); total: the whole process() call.
+      const std::array<std::pair<const char*, const std::vector<double>*>, 10> stages{
           {{"tracking", &tracking_ms},
            {"  pyramid", &pyramid_ms},
            {"  klt", &klt_ms},
@@ -464,6 +471,7 @@ int main(int argc, char** argv) {
            {"motion", &motion_ms},
            {"mapping", &mapping_ms},
            {"ba", &ba_ms},
+           {"pose", &pose_ms},
            {"total", &total_ms}}};
       for (const auto& stage : stages)
         std::printf("%-10s %10.2f %10.2f\n", stage.first, quantile(*stage.second, 0.5),
@@ -485,6 +493,8 @@ int main(int argc, char** argv) {
             "tracker (%s): anchor alignment in %d frames (%d of them tracked again by LK: most "
             "tracks were lost), LK in the others\n",
             toString(config.tracker.method), aligned_frames, rescued_frames);
+      std::printf("motion: %d frames posed against the map, %d of them refined from the prediction (no RANSAC)\n",
+                  pnp_frames, predicted_frames);
       if (config.altimeter.enabled || config.imu.enabled) {
         if (metric_from_frame >= 0)
           std::printf("scale: metres from frame %d on\n", metric_from_frame);

@@ -117,6 +117,8 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.pnp.ransac_confidence, 0.995);
   EXPECT_EQ(c.pnp.min_inliers, 20);
   EXPECT_FALSE(c.pnp.refine);
+  EXPECT_FALSE(c.pnp.from_prediction);
+  EXPECT_DOUBLE_EQ(c.pnp.prediction_min_inlier_ratio, 0.6);
 
   EXPECT_FALSE(c.bundle_adjustment.enabled);
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);

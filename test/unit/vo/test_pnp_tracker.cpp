@@ -1,5 +1,6 @@
 /// Tests of the PnpTracker on synthetic terrain points seen from a known pose: accuracy with pixel noise,
-/// outliers found and flagged, and failure (not a guess) when too few points are in view.
+/// outliers found and flagged, and failure (not a guess) when too few points are in view; the pose from the
+/// motion model's prediction without RANSAC, and the fall-back to RANSAC when the prediction is wrong.
 
 #include <random>
 #include <vector>
@@ -9,6 +10,8 @@
 #include <Eigen/Geometry>
 
 #include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/geometry/pose_gauss_newton.h"
+#include "planetary_vo/vo/bundle_adjuster.h"
 #include "planetary_vo/vo/pnp_tracker.h"
 
 namespace planetary_vo {
@@ -94,6 +97,81 @@ TEST(PnpTracker, MostlyOutliersFail) {
   const Scene s = makeScene(60, 0.3, 0.9, 11);
   PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};
   EXPECT_FALSE(tracker.track(s.p_world, s.px, s.camera.K()).valid);
+}
+
+
+/// The true pose turned by `deg` about a tilted axis and moved by `m` metres: a motion model's prediction.
+Pose predictionOff(const Pose& T_world_cam, double deg, double m) {
+  Pose T = T_world_cam;
+  T.linear() = Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix() *
+               T_world_cam.linear();
+  T.translation() += m * Eigen::Vector3d(0.6, 0.8, 0.0);
+  return T;
+}
+
+TEST(PnpTracker, APredictionCloseEnoughNeedsNoRansac) {
+  // 1 deg and 8 m off at 400 m (about 10-20 px): the refinement from the prediction finds the pose, flags the
+  // same outliers as RANSAC would and is as accurate.
+  const Scene s = makeScene(200, 0.5, 0.2, 3);
+  PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};
+  const Pose predicted = predictionOff(s.T_world_cam, 1.0, 8.0);
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K(), &predicted);
+  ASSERT_TRUE(r.valid) << r.reason;
+  EXPECT_TRUE(r.from_prediction);
+  const PnpTrackResult ransac = tracker.track(s.p_world, s.px, s.camera.K());
+  ASSERT_TRUE(ransac.valid);
+  EXPECT_FALSE(ransac.from_prediction);
+  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);
+  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+  // The same optimum as from RANSAC's start.
+  EXPECT_LT((r.T_world_cam.translation() - ransac.T_world_cam.translation()).norm(), 1e-3);
+  EXPECT_EQ(r.inlier_mask, ransac.inlier_mask);
+  for (size_t i = 0; i < s.is_outlier.size(); ++i) {
+    if (s.is_outlier[i]) {
+      EXPECT_FALSE(r.inlier_mask[i]) << i;
+    }
+  }
+}
+
+TEST(PnpTracker, AWrongPredictionFallsBackToRansac) {
+  // Turned 150 deg away (a motion model gone wrong): the refinement from there cannot see the points (few
+  // inliers); RANSAC finds the pose.
+  const Scene s = makeScene(200, 0.5, 0.2, 3);
+  PnpTracker tracker{PnpConfig(), BundleAdjustmentConfig()};
+  const Pose predicted = predictionOff(s.T_world_cam, 150.0, 150.0);
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K(), &predicted);
+  ASSERT_TRUE(r.valid) << r.reason;
+  EXPECT_FALSE(r.from_prediction);
+  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);
+  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+}
+
+TEST(PnpTracker, WithoutFromPredictionEveryFrameIsRansac) {
+  const Scene s = makeScene(200, 0.5, 0.2, 3);
+  PnpConfig config;
+  config.from_prediction = false;
+  PnpTracker tracker{config, BundleAdjustmentConfig()};
+  const Pose predicted = s.T_world_cam;  // even a perfect prediction
+  const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K(), &predicted);
+  ASSERT_TRUE(r.valid) << r.reason;
+  EXPECT_FALSE(r.from_prediction);
+}
+
+TEST(PnpTracker, TheRefinementIsCeresMotionOnlyProblem) {
+  // pose_gauss_newton.h solves the problem of bundle_adjuster.h's refinePose (Ceres): same residual, same
+  // Huber loss. From the same start both reach the same pose.
+  const Scene s = makeScene(200, 0.5, 0.2, 13);
+  const Pose start = predictionOff(s.T_world_cam, 0.5, 3.0).inverse();
+  const BundleAdjustmentConfig ba;
+  Pose T_ceres = start;
+  const Eigen::Matrix3d K = s.camera.K();
+  ASSERT_TRUE(refinePose(&T_ceres, s.p_world, s.px, K(0, 0), K(1, 1), K(0, 2), K(1, 2), ba).converged);
+  Pose T_gn = start;
+  PoseGaussNewtonOptions options;
+  options.loss_scale_px = ba.robust_loss_scale_px;
+  ASSERT_TRUE(refinePoseGaussNewton(&T_gn, s.p_world, s.px, K, options).converged);
+  EXPECT_LT((T_gn.inverse().translation() - T_ceres.inverse().translation()).norm(), 1e-3);  // m at 400 m
+  EXPECT_LT(rotationAngleDeg(T_gn.linear() * T_ceres.linear().transpose()), 1e-4);
 }
 
 }  // namespace
