@@ -50,8 +50,8 @@ std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_sat
   if (gray.empty() || gray.type() != CV_8UC1)
     throw std::invalid_argument("checkExposure: expected a non-empty 8-bit single-channel image");
   // One pass: sum, sum of squares and the count of saturated pixels.
-  uint64_t sum = 0, sum_sq = 0, saturated = 0;
-  for (int r = 0; r < gray.rows; ++r) {
+  uint64_t sum = 0, sum_sq = 0, saturated = 0, count = 0;
+  for (int r = 0; r < gray.rows; r += kExposureRowStep) {
     const uint8_t* row = gray.ptr<uint8_t>(r);
     uint32_t row_sum = 0, row_saturated = 0;
     uint64_t row_sq = 0;
@@ -64,8 +64,9 @@ std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_sat
     sum += row_sum;
     sum_sq += row_sq;
     saturated += row_saturated;
+    count += static_cast<uint64_t>(gray.cols);
   }
-  const double n = static_cast<double>(gray.total());
+  const double n = static_cast<double>(count);
   const double mean = static_cast<double>(sum) / n;
   const double stddev = std::sqrt(std::max(0.0, static_cast<double>(sum_sq) / n - mean * mean));
   const double saturated_ratio = static_cast<double>(saturated) / n;
