@@ -353,6 +353,10 @@ def summary_markdown(table, names, args, results, wall_s):
     return "\n".join(lines) + "\n"
 
 
+def has_positive_data(ax):
+    return any(math.isfinite(y) and y > 0 for line in ax.get_lines() for y in line.get_ydata())
+
+
 def plot_each_parameter(table, out_dir, draw, ate_label, ratio_label, title_suffix="", ate_legend=False):
     """One figure per parameter, absolute ATE left and ratio to the best right: draw(ax1, ax2, t, values) plots
     the series; the axes, the base value, the cliff line and the file are the same for both kinds of sweep."""
@@ -364,6 +368,8 @@ def plot_each_parameter(table, out_dir, draw, ate_label, ratio_label, title_suff
         keys, values, logx, what = PARAMETERS[p]
         fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
         draw(ax1, ax2, t, values)
+        # A parameter whose every run was lost has nothing to put on a log scale (matplotlib would raise).
+        log_ate, log_ratio = has_positive_data(ax1), has_positive_data(ax2)
         for ax in (ax1, ax2):
             ax.axvline(t["default"], color="grey", linestyle=":", label="base value")
             ax.set_xlabel(what)
@@ -372,12 +378,14 @@ def plot_each_parameter(table, out_dir, draw, ate_label, ratio_label, title_suff
             ax.set_xticks(values)
             ax.set_xticklabels([f"{v:g}" for v in values])
             ax.grid(True, alpha=0.3)
-        ax1.set_yscale("log")
+        if log_ate:
+            ax1.set_yscale("log")
         ax1.set_ylabel(ate_label)
         if ate_legend:
             ax1.legend(fontsize=7, loc="upper left")
         ax2.axhline(CLIFF_RATIO, color="red", linestyle="--", label=f"cliff ({CLIFF_RATIO:g}x best)")
-        ax2.set_yscale("log")
+        if log_ratio:
+            ax2.set_yscale("log")
         ax2.set_ylabel(ratio_label)
         ax2.legend(fontsize=7, loc="upper left")
         fig.suptitle(f"{p}: {'/'.join(keys)}{title_suffix}")
