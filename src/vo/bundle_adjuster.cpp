@@ -9,6 +9,10 @@
 
 #include "planetary_vo/vo/bundle_adjuster.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -878,6 +882,10 @@ bool AsyncBundleAdjuster::busy() const {
 }
 
 void AsyncBundleAdjuster::run() {
+  // A lower priority than the tracking thread (Linux: nice is per thread). Raising the nice value needs no
+  // privilege; if it fails anyway, the optimiser runs at the tracking's priority, as before.
+  if (config_.thread_nice > 0)
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), config_.thread_nice);
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [this] { return stop_ || queued_.has_value(); });

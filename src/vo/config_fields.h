@@ -179,6 +179,7 @@ void bundleAdjustmentFields(C& c, V& v) {
   v("robust_loss_scale_px", c.robust_loss_scale_px, 1e-3, 100.0);
   v("max_iterations", c.max_iterations, 1, 10000);
   v("asynchronous", c.asynchronous);
+  v("thread_nice", c.thread_nice, 0, 19);
 }
 
 template <class C, class V>

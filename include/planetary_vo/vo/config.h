@@ -190,6 +190,9 @@ struct BundleAdjustmentConfig {
   /// Adjust in a background thread while the next image is tracked (applied before that frame's pose, so
   /// results do not depend on timing); false = inline, within the keyframe's own processing.
   bool asynchronous = true;
+  /// Linux nice value of the background optimiser thread (asynchronous), 0-19: on a core it shares with the
+  /// tracking, the tracking then runs first and the optimiser takes the time between frames.
+  int thread_nice = 10;
 };
 
 enum class TrajectoryMode {

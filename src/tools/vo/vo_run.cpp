@@ -35,6 +35,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <glog/logging.h>
@@ -70,6 +71,7 @@ struct Options {
   double cpu_budget_ms = -1.0;  ///< < 0: the configuration's cpu_budget.frame_budget_ms
   double cpu_slowdown = 1.0;
   int cpu_budget_step = 0;  ///< run at this step of the CPU budget's ladder from the start
+  bool realtime = false;    ///< feed the frames at the dataset's own rate instead of back to back
 };
 
 /// A finite number >= lo from text; false when malformed.
@@ -129,7 +131,11 @@ void usage(std::ostream& out) {
          "degradation\n"
          "                    path looks on a CPU F times slower than this one (default 1)\n"
          "  --cpu-budget-step K  run with step K of that path from the first frame (0 = the configuration;\n"
-         "                    the steps are printed), without a budget: each step's cost and accuracy\n";
+         "                    the steps are printed), without a budget: each step's cost and accuracy\n"
+         "  --realtime        give each frame to the pipeline at its own time (the dataset's rate, from the\n"
+         "                    first frame on; loaded from disk before), as a camera would, instead of back to\n"
+         "                    back: the bundle adjustment thread then has the time between frames, as in\n"
+         "                    flight. The trajectory does not change; the stage times do\n";
 }
 
 bool parseArgs(int argc, char** argv, Options* options) {
@@ -199,6 +205,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       options->initial_state_from_groundtruth = true;
     } else if (arg == "--quiet") {
       options->quiet = true;
+    } else if (arg == "--realtime") {
+      options->realtime = true;
     } else if (arg == "--help" || arg == "-h") {
       usage(std::cout);
       std::exit(0);
@@ -337,8 +345,16 @@ int main(int argc, char** argv) {
     // Memory after the first tenth of the frames against the end shows whether the windowed map keeps it
     // flat.
     double resident_mb_early = 0.0;
+    const auto run_start = std::chrono::steady_clock::now();
     for (size_t i = 0; i < num_frames; ++i) {
       const cv::Mat gray = dataset.loadImage(i);
+      if (options.realtime) {
+        // The frame is due at its time since the first frame; a frame that is late (the previous one took
+        // longer than the frame period) is given at once.
+        const double due_s = dataset.timestamp(i) - dataset.timestamp(0);
+        std::this_thread::sleep_until(run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                      std::chrono::duration<double>(due_s)));
+      }
       while (config.altimeter.enabled && next_altimeter < altimeter.size() &&
              altimeter[next_altimeter].timestamp_s <= dataset.timestamp(i))
         pipeline.addAltimeter(altimeter[next_altimeter++]);

@@ -2,13 +2,21 @@
 /// answers: keyframes descending from 500 m to 275 m over rough terrain, observations projected exactly (then
 /// noised, then corrupted with gross outliers), starting values perturbed by a known amount.
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -1023,6 +1031,42 @@ TEST(AsyncBundleAdjuster, DestructorWhileBusyAbortsTheSolve) {
   std::printf("  full solve %.0f ms (%d iterations); destructor returned after %.0f ms\n", s.solve_ms,
               s.iterations, destroy_ms);
   EXPECT_TRUE(s.converged);
+}
+
+/// The nice values of this process's threads other than the calling one (Linux: /proc/self/task/TID/stat,
+/// field 19).
+std::vector<int> otherThreadsNice() {
+  std::vector<int> out;
+  const std::string self = std::to_string(syscall(SYS_gettid));
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) {
+    if (entry.path().filename() == self) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    const size_t paren = text.rfind(')');  // the command name may hold spaces
+    if (paren == std::string::npos) continue;
+    std::istringstream fields(text.substr(paren + 2));
+    std::string field;
+    for (int k = 3; k <= 19 && fields >> field; ++k)
+      if (k == 19) out.push_back(std::stoi(field));
+  }
+  return out;
+}
+
+TEST(AsyncBundleAdjuster, TheWorkerRunsAtTheConfiguredNiceValue) {
+  // The optimiser thread yields a shared core to the tracking: its nice value is bundle_adjustment.thread_nice.
+  for (const int nice : {7, 0}) {
+    SCOPED_TRACE(nice);
+    BundleAdjustmentConfig config;
+    config.thread_nice = nice;
+    AsyncBundleAdjuster async(config);
+    BaProblem problem = bigProblem(10);
+    async.submit(problem);
+    async.waitIdle();  // the worker has started (and set its priority) once it has solved a problem
+    const std::vector<int> others = otherThreadsNice();
+    const int at_seven = static_cast<int>(std::count(others.begin(), others.end(), 7));
+    EXPECT_EQ(at_seven, nice == 7 ? 1 : 0);
+    EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))), 0) << "the caller's own priority";
+  }
 }
 
 }  // namespace

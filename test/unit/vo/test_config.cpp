@@ -126,6 +126,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_px, 1.5);
   EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
   EXPECT_FALSE(c.bundle_adjustment.asynchronous);
+  EXPECT_EQ(c.bundle_adjustment.thread_nice, 3);
 
   EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
   EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);
