@@ -191,8 +191,10 @@ struct BundleAdjustmentConfig {
   /// results do not depend on timing); false = inline, within the keyframe's own processing.
   bool asynchronous = true;
   /// Linux nice value of the background optimiser thread (asynchronous), 0-19: on a core it shares with the
-  /// tracking, the tracking then runs first and the optimiser takes the time between frames.
-  int thread_nice = 10;
+  /// tracking, the tracking then runs first and the optimiser takes the time between frames (frames fed at the
+  /// camera's rate). Frames fed back to back (vo_run) then wait for the optimiser at keyframes. 0 = the
+  /// tracking's priority.
+  int thread_nice = 0;
 };
 
 enum class TrajectoryMode {
