@@ -43,7 +43,7 @@ double weight(double s, Loss loss, double a) {
 struct Problem {
   const std::vector<Eigen::Vector3d>* p_world;
   const std::vector<Eigen::Vector2d>* px;
-  std::vector<int> used;  ///< points in front of the camera at the start
+  const std::vector<int>& used;  ///< points in front of the camera at the start
   Eigen::Matrix3d K;
   Loss loss;
   double a;
@@ -104,25 +104,29 @@ Pose applyStep(const Pose& T, const Eigen::Matrix<double, 6, 1>& xi, double dept
 
 PoseGaussNewtonSummary refinePoseGaussNewton(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                                             const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K,
-                                            const PoseGaussNewtonOptions& options) {
+                                            const PoseGaussNewtonOptions& options,
+                                            PoseGaussNewtonScratch* scratch) {
   if (T_cam_world == nullptr) throw std::invalid_argument("refinePoseGaussNewton: null pose");
   if (p_world.size() != px.size()) {
     throw std::invalid_argument("refinePoseGaussNewton: " + std::to_string(p_world.size()) + " points but " +
                                 std::to_string(px.size()) + " pixels");
   }
   PoseGaussNewtonSummary summary;
-  Problem problem{&p_world, &px, {}, K, options.loss, options.loss_scale_px};
-  std::vector<double> depths;
-  problem.used.reserve(p_world.size());
-  depths.reserve(p_world.size());
+  PoseGaussNewtonScratch local;
+  PoseGaussNewtonScratch& buffers = scratch != nullptr ? *scratch : local;
+  std::vector<int>& used = buffers.used;
+  std::vector<double>& depths = buffers.depths;
+  used.clear();
+  depths.clear();
   for (size_t i = 0; i < p_world.size(); ++i) {
     const double z = (*T_cam_world * p_world[i]).z();
     if (!(z > 0.0) || !std::isfinite(z) || !px[i].allFinite()) continue;
-    problem.used.push_back(static_cast<int>(i));
+    used.push_back(static_cast<int>(i));
     depths.push_back(z);
   }
-  summary.num_residuals = static_cast<int>(problem.used.size());
-  if (problem.used.size() < 3) return summary;
+  summary.num_residuals = static_cast<int>(used.size());
+  if (used.size() < 3) return summary;
+  const Problem problem{&p_world, &px, used, K, options.loss, options.loss_scale_px};
   std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
   const double depth = depths[depths.size() / 2];
 

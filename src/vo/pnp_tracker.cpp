@@ -3,7 +3,6 @@
 #include <cmath>
 
 #include "planetary_vo/geometry/pnp_solver.h"
-#include "planetary_vo/geometry/pose_gauss_newton.h"
 
 namespace planetary_vo {
 
@@ -27,8 +26,9 @@ PoseGaussNewtonOptions motionOnlyOptions(const BundleAdjustmentConfig& refinemen
 
 bool PnpTracker::refineAndScore(Pose T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                                 const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K,
-                                PnpTrackResult* result) const {
-  if (config_.refine) refinePoseGaussNewton(&T_cam_world, p_world, px, K, motionOnlyOptions(refinement_));
+                                PnpTrackResult* result) {
+  if (config_.refine)
+    refinePoseGaussNewton(&T_cam_world, p_world, px, K, motionOnlyOptions(refinement_), &refine_scratch_);
   const double threshold_sq = config_.ransac_reprojection_error_px * config_.ransac_reprojection_error_px;
   result->inlier_mask.assign(p_world.size(), 0);
   result->num_inliers = 0;

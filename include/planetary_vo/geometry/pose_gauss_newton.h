@@ -38,12 +38,19 @@ struct PoseGaussNewtonSummary {
   double final_cost = 0.0;
 };
 
+/// Buffers of one call, kept by a caller that refines every frame so that the call allocates nothing.
+struct PoseGaussNewtonScratch {
+  std::vector<int> used;
+  std::vector<double> depths;
+};
+
 /// Refines `T_cam_world` (p_cam = T_cam_world * p_world) in place from its current value; the pose is written
 /// whenever the cost went down (also when the iteration cap stopped it: `converged` says which). Points behind
 /// the camera at the start take no part. Leaves the pose unchanged when fewer than 3 points are in front, or
 /// when the normal equations are singular.
 PoseGaussNewtonSummary refinePoseGaussNewton(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                                             const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K,
-                                            const PoseGaussNewtonOptions& options = {});
+                                            const PoseGaussNewtonOptions& options = {},
+                                            PoseGaussNewtonScratch* scratch = nullptr);
 
 }  // namespace planetary_vo

@@ -165,7 +165,9 @@ BaSummary adjustBundle(BaProblem* problem, const BundleAdjustmentConfig& config)
 
 /// Motion-only refinement: the camera pose that minimises the robust reprojection error of fixed world
 /// points. Returns the summary; `T_cam_world` is updated in place. With no point in front of the camera the
-/// pose is undetermined: converged is false and the pose is unchanged.
+/// pose is undetermined: converged is false and the pose is unchanged. The pipeline's per-frame refinement
+/// is geometry/pose_gauss_newton.h (the same problem without Ceres); this one is the Ceres reference the
+/// tests check it against (test_pnp_tracker.cpp).
 BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
                      const std::vector<Eigen::Vector2d>& px, double fx, double fy, double cx, double cy,
                      const BundleAdjustmentConfig& config);

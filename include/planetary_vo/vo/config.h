@@ -171,7 +171,9 @@ struct PnpConfig {
   int ransac_iterations = 100;                ///< RANSAC iteration cap
   double ransac_confidence = 0.99;            ///< RANSAC success probability
   int min_inliers = 15;                       ///< fewer inliers -> tracking against the map failed
-  bool refine = true;                         ///< Levenberg-Marquardt refinement on the inliers
+  /// Levenberg-Marquardt on RANSAC's inliers, then the robust motion-only refinement over all
+  /// correspondences (geometry/pose_gauss_newton.h, bundle_adjustment's loss).
+  bool refine = true;
   /// Start from the motion model's predicted pose: robust motion-only refinement from it, RANSAC only when
   /// that leaves fewer than prediction_min_inlier_ratio of the correspondences as inliers. Needs refine.
   bool from_prediction = true;

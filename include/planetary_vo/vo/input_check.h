@@ -70,9 +70,9 @@ class FrozenFrameDetector {
 
 /// @brief Why `gray` (8UC1) cannot be tracked, or "" when it can: more than max_saturated_ratio of its pixels
 /// at 255 ("saturated frame"), or a gray-level standard deviation below min_stddev ("black frame" when the
-/// mean is below 10, else "blank frame"). Every pixel of every kExposureRowStep-th row is counted (a quarter of
-/// the image: the same figures to well within these coarse thresholds, at a quarter of the cost on every
-/// frame: 0.26 against 0.07 ms at 1024x1024).
+/// mean is below 10, else "blank frame"). Every pixel of every kExposureRowStep-th row is counted: a quarter of
+/// the image gives the same figures to well within these coarse thresholds, at a quarter of the cost of this
+/// check that runs on every frame (docs/visual_core.md, step 3).
 std::string checkExposure(const cv::Mat& gray, double min_stddev, double max_saturated_ratio);
 constexpr int kExposureRowStep = 4;
 

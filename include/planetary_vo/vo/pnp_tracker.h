@@ -16,6 +16,7 @@
 #include <opencv2/core.hpp>
 
 #include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/geometry/pose_gauss_newton.h"
 #include "planetary_vo/vo/config.h"
 
 namespace planetary_vo {
@@ -47,11 +48,12 @@ class PnpTracker {
  private:
   /// Robust refinement from T_cam_world, then its inliers; false when too few.
   bool refineAndScore(Pose T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
-                      const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K, PnpTrackResult* result) const;
+                      const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K, PnpTrackResult* result);
 
   PnpConfig config_;
   BundleAdjustmentConfig refinement_;
   std::vector<cv::Point2d> px_cv_;
+  PoseGaussNewtonScratch refine_scratch_;
 };
 
 }  // namespace planetary_vo

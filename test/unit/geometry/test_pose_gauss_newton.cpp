@@ -10,20 +10,14 @@
 
 #include <Eigen/Geometry>
 
+#include "unit/geometry/geometry_test_scene.h"
 #include "planetary_vo/geometry/camera_model.h"
 #include "planetary_vo/geometry/pose_gauss_newton.h"
 
 namespace planetary_vo {
 namespace {
 
-Pose makePose(const Eigen::Vector3d& axis_angle_deg, const Eigen::Vector3d& t) {
-  Pose T = Pose::Identity();
-  if (axis_angle_deg.norm() > 0)
-    T.linear() = Eigen::AngleAxisd(axis_angle_deg.norm() * M_PI / 180.0, axis_angle_deg.normalized())
-                     .toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
+using test::makePose;
 
 struct Scene {
   PinholeCamera cam{1024, 1024, 900, 900, 512, 512};

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "unit/geometry/geometry_test_scene.h"
 #include "planetary_vo/geometry/camera_model.h"
 #include "planetary_vo/geometry/pnp_solver.h"
 #include "planetary_vo/geometry/triangulation.h"
@@ -13,14 +14,7 @@
 namespace planetary_vo {
 namespace {
 
-Pose makePose(const Eigen::Vector3d& axis_angle_deg, const Eigen::Vector3d& t) {
-  Pose T = Pose::Identity();
-  if (axis_angle_deg.norm() > 0)
-    T.linear() = Eigen::AngleAxisd(axis_angle_deg.norm() * M_PI / 180.0, axis_angle_deg.normalized())
-                     .toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
+using test::makePose;
 
 cv::Point2d project(const PinholeCamera& cam, const Eigen::Vector3d& p) {
   const Eigen::Vector2d u = cam.project(p);

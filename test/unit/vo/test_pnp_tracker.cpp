@@ -100,6 +100,12 @@ TEST(PnpTracker, MostlyOutliersFail) {
 }
 
 
+/// The pose within 0.5 m (at 400 m altitude) and 0.05 deg of the truth.
+void expectTruePose(const PnpTrackResult& r, const Scene& s) {
+  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);
+  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+}
+
 /// The true pose turned by `deg` about a tilted axis and moved by `m` metres: a motion model's prediction.
 Pose predictionOff(const Pose& T_world_cam, double deg, double m) {
   Pose T = T_world_cam;
@@ -121,8 +127,7 @@ TEST(PnpTracker, APredictionCloseEnoughNeedsNoRansac) {
   const PnpTrackResult ransac = tracker.track(s.p_world, s.px, s.camera.K());
   ASSERT_TRUE(ransac.valid);
   EXPECT_FALSE(ransac.from_prediction);
-  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);
-  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+  expectTruePose(r, s);
   // The same optimum as from RANSAC's start.
   EXPECT_LT((r.T_world_cam.translation() - ransac.T_world_cam.translation()).norm(), 1e-3);
   EXPECT_EQ(r.inlier_mask, ransac.inlier_mask);
@@ -142,8 +147,7 @@ TEST(PnpTracker, AWrongPredictionFallsBackToRansac) {
   const PnpTrackResult r = tracker.track(s.p_world, s.px, s.camera.K(), &predicted);
   ASSERT_TRUE(r.valid) << r.reason;
   EXPECT_FALSE(r.from_prediction);
-  EXPECT_LT((r.T_world_cam.translation() - s.T_world_cam.translation()).norm(), 0.5);
-  EXPECT_LT(rotationAngleDeg(r.T_world_cam.linear().transpose() * s.T_world_cam.linear()), 0.05);
+  expectTruePose(r, s);
 }
 
 TEST(PnpTracker, WithoutFromPredictionEveryFrameIsRansac) {
