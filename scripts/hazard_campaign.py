@@ -11,7 +11,8 @@ Each (dataset, target) pair is one trial. Trials on one dataset share its map, s
 summary gives both counts. Prints a table and a summary line; --json writes every trial.
 
   scripts/hazard_campaign.py --datasets DIR [DIR ...] [--out output/hazard_campaign] [--confidence-k 2]
-                             [--targets "x,y;x,y;..."] [--hazard-config FILE] [--reuse] [--json FILE]
+                             [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F] [--reuse]
+                             [--json FILE]
 """
 import argparse
 import json
@@ -40,6 +41,8 @@ def main():
     ap.add_argument("--config", default=os.path.join(ROOT, "config", "lunar_fused.yaml"))
     ap.add_argument("--hazard-config", default="", help="vo_run --hazard-config (default: config/hazard.yaml's values)")
     ap.add_argument("--confidence-k", type=float, default=2.0)
+    ap.add_argument("--max-shadow-fraction", type=float, default=None,
+                    help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not hazards)")
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')
     ap.add_argument("--reuse", action="store_true", help="keep a dataset's existing terrain map")
     ap.add_argument("--json", default="")
@@ -67,7 +70,8 @@ def main():
             tag = "t%+04.0f%+04.0f" % (x, y)
             js = os.path.join(work, tag + ".json")
             run([os.path.join(BIN, "terrain_eval"), "--gt", dataset, "--est", terrain, "--target-x-m", str(x),
-                 "--target-y-m", str(y), "--confidence-k", str(a.confidence_k), "--json", js],
+                 "--target-y-m", str(y), "--confidence-k", str(a.confidence_k), "--json", js]
+                + (["--max-shadow-fraction", str(a.max_shadow_fraction)] if a.max_shadow_fraction is not None else []),
                 os.path.join(work, tag + ".txt"))
             site = json.load(open(js)).get("landing_site")
             trial = {"dataset": name, "target_x_m": x, "target_y_m": y, "site": site}

@@ -15,10 +15,10 @@
 namespace planetary_vo::ros_io {
 namespace {
 
-constexpr int kNumRasterLayers = 7;
+constexpr int kNumRasterLayers = 8;
 const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
                                                      "slope_sigma_deg", "residual_rms_m",    "slope_deg",
-                                                     "roughness_m"};
+                                                     "roughness_m",     "shadow_fraction"};
 
 sensor_msgs::Image floatImage(const cv::Mat& layer, const std_msgs::Header& header) {
   sensor_msgs::Image img;
@@ -89,11 +89,12 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.support_radius_m = config.map.support_radius_m;
   msg.max_slope_deg = config.thresholds.max_slope_deg;
   msg.max_roughness_m = config.thresholds.max_roughness_m;
+  msg.max_shadow_fraction = config.thresholds.max_shadow_fraction;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
   sensor_msgs::Image* out[kNumRasterLayers] = {
       &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
-      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m};
+      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m,    &msg.shadow_fraction};
   for (int i = 0; i < kNumRasterLayers; ++i) {
     auto it = grids.layers.find(kRasterLayers[i]);
     if (it != grids.layers.end()) *out[i] = floatImage(it->second, header);
@@ -106,14 +107,15 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
   grids.geometry = fromMapMetaData(msg.info);
   const sensor_msgs::Image* in[kNumRasterLayers] = {
       &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
-      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m};
+      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m,    &msg.shadow_fraction};
   for (int i = 0; i < kNumRasterLayers; ++i)
     if (!in[i]->data.empty())
       grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);
   grids.parameters = {{"footprint_diameter_m", msg.footprint_diameter_m},
                       {"support_radius_m", msg.support_radius_m},
                       {"max_slope_deg", msg.max_slope_deg},
-                      {"max_roughness_m", msg.max_roughness_m}};
+                      {"max_roughness_m", msg.max_roughness_m},
+                      {"max_shadow_fraction", msg.max_shadow_fraction}};
   grids.description = msg.metric ? "hazard map (metric)" : "hazard map (NOT metric: the map's unit)";
   return grids;
 }
@@ -297,7 +299,8 @@ sensor_msgs::PointCloud2 toElevationCloud(const terrain::GridSet& grids, int str
   cloud.height = 1;
   cloud.width = static_cast<uint32_t>(points.size());
   cloud.is_dense = true;
-  if (points.empty()) return cloud;  // no iterator over empty data: it takes data.front() (UB; see toPointCloud)
+  if (points.empty())
+    return cloud;  // no iterator over empty data: it takes data.front() (UB; see toPointCloud)
   sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z"), i(cloud, "intensity");
   for (const auto& p : points) {
     *x = p[0], *y = p[1], *z = p[2], *i = p[3];

@@ -24,4 +24,19 @@ cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const H
   return mask;
 }
 
+cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
+                   const HazardThresholds& thresholds) {
+  cv::Mat mask = hazardMask(slope_deg, roughness_m, thresholds);
+  if (shadow_fraction.empty()) return mask;
+  if (shadow_fraction.type() != CV_32FC1 || shadow_fraction.size() != mask.size())
+    throw std::invalid_argument("hazardMask: the shadow fraction must be a CV_32F layer of the slope's size");
+  for (int row = 0; row < mask.rows; ++row) {
+    const float* f = shadow_fraction.ptr<float>(row);
+    uint8_t* m = mask.ptr<uint8_t>(row);
+    for (int col = 0; col < mask.cols; ++col)
+      if (std::isfinite(f[col]) && f[col] > thresholds.max_shadow_fraction) m[col] = kUnknown;
+  }
+  return mask;
+}
+
 }  // namespace planetary_vo::terrain

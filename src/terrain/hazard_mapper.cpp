@@ -55,9 +55,15 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"klt_window_px", &c->densifier.klt_window_px},
         {"klt_levels", &c->densifier.klt_levels},
         {"max_window_footprint_m", &c->densifier.max_window_footprint_m}}},
+      {"shadows",
+       {{"enabled", &c->shadows.enabled},
+        {"dark_fraction_of_median", &c->shadows.dark_fraction_of_median},
+        {"max_pixel_footprint_m", &c->shadows.max_pixel_footprint_m},
+        {"max_keyframes", &c->shadows.max_keyframes}}},
       {"thresholds",
        {{"max_slope_deg", &c->thresholds.max_slope_deg},
-        {"max_roughness_m", &c->thresholds.max_roughness_m}}},
+        {"max_roughness_m", &c->thresholds.max_roughness_m},
+        {"max_shadow_fraction", &c->thresholds.max_shadow_fraction}}},
       {"sites",
        {{"target_x_m", &c->sites.target_x_m},
         {"target_y_m", &c->sites.target_y_m},
@@ -125,6 +131,11 @@ std::vector<std::string> validationErrors(const HazardMapperConfig& c) {
     Densifier check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.densifier);
   } catch (const std::invalid_argument& e) {
     problems.push_back(std::string("densifier: ") + e.what());
+  }
+  try {
+    ShadowMap check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.shadows);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("shadows: ") + e.what());
   }
   try {
     GridSet tiny;
@@ -239,20 +250,23 @@ HazardMapper::HazardMapper(const HazardMapperConfig& config) : config_(withArea(
 
 void HazardMapper::setCamera(const PinholeCamera& camera) {
   auto densifier = std::make_unique<Densifier>(camera, config_.densifier);  // validates the camera
+  auto shadows = std::make_unique<ShadowMap>(camera, config_.shadows);
   camera_ = std::make_unique<PinholeCamera>(camera);
   densifier_ = std::move(densifier);
+  shadows_ = std::move(shadows);
 }
 
 HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scale,
                                        const cv::Mat& keyframe_gray) {
   HazardMapperUpdate update;
   update.keyframe = !events.keyframes_added.empty();
-  if ((events.map_restarted || metric_scale != metric_) && camera_)
+  if ((events.map_restarted || metric_scale != metric_) && camera_) {
     densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
+    shadows_->clear();
+  }
   metric_ = metric_scale;
   map_.apply(events, metric_scale);
-  if (!update.keyframe || !metric_scale || !config_.densify || !densifier_ || keyframe_gray.empty())
-    return update;
+  if (!update.keyframe || !metric_scale || !camera_ || keyframe_gray.empty()) return update;
   if (keyframe_gray.type() != CV_8UC1 || keyframe_gray.cols != camera_->width() ||
       keyframe_gray.rows != camera_->height())
     throw std::invalid_argument(
@@ -260,6 +274,11 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
         std::to_string(keyframe_gray.cols) + "x" + std::to_string(keyframe_gray.rows) + ", camera " +
         std::to_string(camera_->width()) + "x" + std::to_string(camera_->height()) + ")");
   const MapKeyframeState& kf = events.keyframes_added.back();
+  if (config_.shadows.enabled) {
+    shadows_->addKeyframe(kf.T_world_cam, keyframe_gray);
+    update.shadow_view_added = true;
+  }
+  if (!config_.densify) return update;
   const double ground_z = map_.medianGroundHeight();
   MapEvents dense;
   dense.points_added = densifier_->addKeyframe(kf.timestamp_s, kf.T_world_cam, keyframe_gray,
@@ -273,13 +292,21 @@ void HazardMapper::reset() {
   map_.clear();
   metric_ = false;
   if (camera_) densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
+  if (shadows_) shadows_->clear();
 }
 
 HazardProducts HazardMapper::products() const {
   HazardProducts out;
   out.terrain = map_.products();
+  if (shadows_ && config_.shadows.enabled && out.terrain.metric) {
+    out.terrain.grids.layers["shadow_fraction"] = shadows_->shadowFraction(
+        out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"), &out.shadows);
+    out.terrain.grids.parameters["max_shadow_fraction"] = config_.thresholds.max_shadow_fraction;
+  }
   const GridSet& g = out.terrain.grids;
-  out.hazard = hazardMask(g.layers.at("slope_deg"), g.layers.at("roughness_m"), config_.thresholds);
+  const auto shadow = g.layers.find("shadow_fraction");
+  out.hazard = hazardMask(g.layers.at("slope_deg"), g.layers.at("roughness_m"),
+                          shadow == g.layers.end() ? cv::Mat() : shadow->second, config_.thresholds);
   cv::Mat hazard_f(out.hazard.size(), CV_32F);
   for (int r = 0; r < out.hazard.rows; ++r)
     for (int c = 0; c < out.hazard.cols; ++c) {

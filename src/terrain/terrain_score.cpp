@@ -34,7 +34,12 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   const cv::Mat& r_true = layer(truth, "roughness_m", "truth");
   const cv::Mat& r_est = layer(estimate, "roughness_m", "estimate");
   const cv::Mat hazard_true = hazardMask(s_true, r_true, thresholds);
-  const cv::Mat hazard_est = hazardMask(s_est, r_est, thresholds);
+  // The surface is scored wherever the estimate has a slope and roughness; the hazards as the estimate
+  // publishes them: its cells seen in shadow unknown (terrain/shadow_map.h), so not scored.
+  const cv::Mat surface_est = hazardMask(s_est, r_est, thresholds);
+  const auto shadow = estimate.layers.find("shadow_fraction");
+  const cv::Mat hazard_est =
+      hazardMask(s_est, r_est, shadow == estimate.layers.end() ? cv::Mat() : shadow->second, thresholds);
   TerrainScore score;
   score.cells = truth.geometry.rows * truth.geometry.cols;
   int true_elevation = 0, true_surface = 0;
@@ -57,7 +62,7 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
       const uint8_t ht = hazard_true.at<uint8_t>(row, col), he = hazard_est.at<uint8_t>(row, col);
       if (ht == kUnknown) continue;
       ++true_surface;
-      if (he == kUnknown) continue;
+      if (surface_est.at<uint8_t>(row, col) == kUnknown) continue;
       ++score.cells_surface;
       sss += std::pow(s_est.at<float>(row, col) - s_true.at<float>(row, col), 2);
       slope_errors.push_back(std::abs(s_est.at<float>(row, col) - s_true.at<float>(row, col)));

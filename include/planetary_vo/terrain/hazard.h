@@ -14,6 +14,11 @@ namespace planetary_vo::terrain {
 struct HazardThresholds {
   double max_slope_deg = 10.0;
   double max_roughness_m = 0.3;
+  /// A cell seen dark in more than this fraction of the views that resolve it (terrain/shadow_map.h) is
+  /// unknown, whatever its slope and roughness: its relief is unseen (a cast shadow marks a rock, a rim or a
+  /// slope turned from the Sun, smaller than the map's plane fit may resolve), so it is never certified safe.
+  /// Used only where a shadow layer is given; 1 = shadows are ignored.
+  double max_shadow_fraction = 0.5;
 };
 
 /// Cell values of hazardMask().
@@ -22,5 +27,9 @@ enum HazardCell : uint8_t { kSafe = 0, kHazard = 1, kUnknown = 255 };
 /// CV_8U of the size of the layers (CV_32F, NaN = unknown): kSafe, kHazard or kUnknown per cell. Throws
 /// std::invalid_argument on layers of different sizes or types.
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const HazardThresholds& thresholds);
+/// The same, and a cell whose `shadow_fraction` (CV_32F, NaN = not seen at the resolution; empty = no
+/// layer) exceeds thresholds.max_shadow_fraction is unknown (its relief unseen).
+cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
+                   const HazardThresholds& thresholds);
 
 }  // namespace planetary_vo::terrain

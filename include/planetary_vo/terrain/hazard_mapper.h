@@ -28,6 +28,7 @@
 #include "planetary_vo/terrain/hazard.h"
 #include "planetary_vo/terrain/landing_area.h"
 #include "planetary_vo/terrain/landing_sites.h"
+#include "planetary_vo/terrain/shadow_map.h"
 #include "planetary_vo/terrain/terrain_map.h"
 #include "planetary_vo/vo/map_events.h"
 
@@ -38,6 +39,9 @@ struct HazardMapperConfig {
   TerrainMapConfig map;
   bool densify = true;  ///< densify the landing area at keyframes once metric
   DensifierConfig densifier;
+  /// The shadows of the keyframes once metric (shadow_map.h): a cell seen in shadow is unknown in the
+  /// hazard mask, never a site (thresholds.max_shadow_fraction).
+  ShadowMapConfig shadows;
   HazardThresholds thresholds;
   LandingSiteParams sites;
 };
@@ -64,16 +68,20 @@ std::string dumpHazardMapperConfig(const HazardMapperConfig& config);
 
 /// What one apply() did.
 struct HazardMapperUpdate {
-  bool keyframe = false;     ///< the events added a keyframe
-  bool densified = false;    ///< ... and the densifier ran on it
-  DensifierStats densifier;  ///< its counts when it ran
+  bool keyframe = false;           ///< the events added a keyframe
+  bool densified = false;          ///< ... and the densifier ran on it
+  DensifierStats densifier;        ///< its counts when it ran
+  bool shadow_view_added = false;  ///< the keyframe's shadows were kept (metric, shadows enabled)
 };
 
 struct HazardProducts {
   /// Layers elevation_m, elevation_sigma_m, support_points, slope_deg, roughness_m (terrain_map.h) and
-  /// hazard (0 safe, 1 hazard, NaN unknown: hazardMask as float, so that it is written with the rest).
+  /// hazard (0 safe, 1 hazard, NaN unknown: hazardMask as float, so that it is written with the rest);
+  /// once metric with shadows enabled, shadow_fraction (shadow_map.h), which the hazard mask and the sites
+  /// take into account.
   TerrainProducts terrain;
-  cv::Mat hazard;  ///< CV_8U hazardMask() of the layers (kSafe, kHazard, kUnknown)
+  ShadowStats shadows;  ///< cells seen at the resolution, and in shadow
+  cv::Mat hazard;       ///< CV_8U hazardMask() of the layers (kSafe, kHazard, kUnknown)
   /// Sites near config.sites' target, best first. Searched only on a metric map (distances, clearance and
   /// roughness in metres); otherwise empty with the reason.
   LandingSiteResult sites;
@@ -113,6 +121,7 @@ class HazardMapper {
   TerrainMap map_;
   std::unique_ptr<PinholeCamera> camera_;
   std::unique_ptr<Densifier> densifier_;
+  std::unique_ptr<ShadowMap> shadows_;
   bool metric_ = false;
 };
 

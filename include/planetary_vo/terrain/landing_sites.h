@@ -5,7 +5,9 @@
 ///
 /// A site is a cell of the grid (its centre, world frame of terrain/grid.h). A cell qualifies when
 ///  1. it is safe with confidence: slope + k sigma_slope <= max_slope_deg and roughness + k sigma_roughness
-///     <= max_roughness_m (terrain/hazard.h applied to the raised values; an unknown cell is never safe);
+///     <= max_roughness_m (terrain/hazard.h applied to the raised values; an unknown cell is never safe),
+///     and, when the grid set has the layer `shadow_fraction` (terrain/shadow_map.h), it was not seen in
+///     shadow in more than max_shadow_fraction of its views (such a cell is unknown: its relief is unseen);
 ///  2. its clearance, the distance from its centre to the centre of the nearest cell that is not safe with
 ///     confidence (hazardous, unknown, or outside the grid, which counts as unknown), is >= min_clearance_m;
 ///  3. its centre lies within max_distance_from_target_m of the target.

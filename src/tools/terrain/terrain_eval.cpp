@@ -2,19 +2,20 @@
 /// true one the renderer wrote into the dataset (groundtruth_terrain, render/terrain_truth.h).
 ///
 ///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10] [--max-roughness-m
-///   0.3]
+///   0.3] [--max-shadow-fraction 0.5]
 ///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2] [--json FILE]
 ///                [--write-truth-at-resolution DIR]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
-/// (terrain/terrain_score.h) against the truth as sampled, and, when the estimate says its plane-fit
-/// support (parameter support_radius_m), against the truth seen at that resolution (terrain/resolution.h);
-/// then the landing site the run chose (DIR/landing_sites.yaml, written by vo_run --output-terrain and by
-/// hazard_recorder from the hazard nodelet) or, when the file is absent or a site option is given, the one
-/// the estimated map gives here (terrain/landing_sites.h; defaults but for the options), and whether it is
-/// truly safe (checkSite). --write-truth-at-resolution writes that truth (elevation, slope, roughness) to
-/// DIR/truth_at_resolution.yaml and its TIFFs, for scripts/terrain_errors.py. Exit 0 when scored, 2 on bad
-/// arguments or files.
+/// (terrain/terrain_score.h; the estimate's hazards include its cells seen in shadow when it has the layer
+/// shadow_fraction, --max-shadow-fraction 1 leaves them out) against the truth as sampled, and, when the
+/// estimate says its plane-fit support (parameter support_radius_m), against the truth seen at that
+/// resolution (terrain/resolution.h); then the landing site the run chose (DIR/landing_sites.yaml, written by
+/// vo_run --output-terrain and by hazard_recorder from the hazard nodelet) or, when the file is absent or a
+/// site option is given, the one the estimated map gives here (terrain/landing_sites.h; defaults but for the
+/// options), and whether it is truly safe (checkSite). --write-truth-at-resolution writes that truth
+/// (elevation, slope, roughness) to DIR/truth_at_resolution.yaml and its TIFFs, for
+/// scripts/terrain_errors.py. Exit 0 when scored, 2 on bad arguments or files.
 
 #include <cmath>
 #include <cstdio>
@@ -36,7 +37,8 @@ namespace {
 int usage(const char* why) {
   std::fprintf(stderr,
                "terrain_eval: %s\nusage: terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] "
-               "[--max-slope-deg D] [--max-roughness-m M] [--target-x-m X --target-y-m Y] [--max-divert-m R] "
+               "[--max-slope-deg D] [--max-roughness-m M] [--max-shadow-fraction F] [--target-x-m X "
+               "--target-y-m Y] [--max-divert-m R] "
                "[--confidence-k K] [--json FILE] [--write-truth-at-resolution DIR]\n",
                why);
   return 2;
@@ -90,6 +92,8 @@ int main(int argc, char** argv) {
         thresholds.max_slope_deg = std::stod(value);
       else if (arg == "--max-roughness-m")
         thresholds.max_roughness_m = std::stod(value);
+      else if (arg == "--max-shadow-fraction")
+        thresholds.max_shadow_fraction = std::stod(value), choose_here = true;
       else if (arg == "--target-x-m")
         site_params.target_x_m = std::stod(value), choose_here = true;
       else if (arg == "--target-y-m")

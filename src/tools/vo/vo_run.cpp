@@ -133,7 +133,8 @@ void usage(std::ostream& out) {
          "  --cpu-budget-step K  run with step K of that path from the first frame (0 = the configuration;\n"
          "                    the steps are printed), without a budget: each step's cost and accuracy\n"
          "  --realtime        give each frame to the pipeline at its own time (the dataset's rate, from the\n"
-         "                    first frame on; loaded from disk before), as a camera would, instead of back to\n"
+         "                    first frame on; loaded from disk before), as a camera would, instead of back "
+         "to\n"
          "                    back: the bundle adjustment thread then has the time between frames, as in\n"
          "                    flight. The trajectory does not change; the stage times do\n";
 }
@@ -352,8 +353,9 @@ int main(int argc, char** argv) {
         // The frame is due at its time since the first frame; a frame that is late (the previous one took
         // longer than the frame period) is given at once.
         const double due_s = dataset.timestamp(i) - dataset.timestamp(0);
-        std::this_thread::sleep_until(run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                      std::chrono::duration<double>(due_s)));
+        std::this_thread::sleep_until(run_start +
+                                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                          std::chrono::duration<double>(due_s)));
       }
       while (config.altimeter.enabled && next_altimeter < altimeter.size() &&
              altimeter[next_altimeter].timestamp_s <= dataset.timestamp(i))
@@ -453,6 +455,10 @@ int main(int argc, char** argv) {
             products.num_points, products.num_used, products.cells_known,
             products.grids.geometry.rows * products.grids.geometry.cols,
             products.metric ? "" : " (NOT metric: map units)", options.terrain_dir.c_str());
+      if (!options.quiet && products.grids.layers.count("shadow_fraction"))
+        std::printf(
+            "terrain: shadows: %d cells seen at the resolution by the last keyframes, %d of them in shadow\n",
+            hazard.shadows.cells_seen, hazard.shadows.cells_shadowed);
       if (!options.quiet)
         std::printf("terrain: products (rasters, hazard mask, landing sites) computed in %.0f ms\n",
                     products_ms);
@@ -509,8 +515,9 @@ int main(int argc, char** argv) {
             "tracker (%s): anchor alignment in %d frames (%d of them tracked again by LK: most "
             "tracks were lost), LK in the others\n",
             toString(config.tracker.method), aligned_frames, rescued_frames);
-      std::printf("motion: %d frames posed against the map, %d of them refined from the prediction (no RANSAC)\n",
-                  pnp_frames, predicted_frames);
+      std::printf(
+          "motion: %d frames posed against the map, %d of them refined from the prediction (no RANSAC)\n",
+          pnp_frames, predicted_frames);
       if (config.altimeter.enabled || config.imu.enabled) {
         if (metric_from_frame >= 0)
           std::printf("scale: metres from frame %d on\n", metric_from_frame);

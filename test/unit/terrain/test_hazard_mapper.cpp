@@ -195,6 +195,61 @@ TEST(HazardMapper, NoSiteOnAMapWithoutMetres) {
   EXPECT_GT(cv::countNonZero(products.hazard == kHazard), 1000);
 }
 
+TEST(HazardMapper, NoSiteNextToAShadowTheKeyframesSaw) {
+  // The plain of the test above, flat where the target is now (-15, 0); a nadir keyframe from 40 m sees a
+  // black square 2 m across at the target (the shadow of a rock the 2 m plane fit does not resolve). Its
+  // cells become unknown and the best site keeps the dispersion clear of them; with the shadows off, the
+  // site is the target itself.
+  HazardMapperConfig config = smallArea();
+  config.sites.target_x_m = -15.0;
+  config.densify = false;
+  const PinholeCamera camera = PinholeCamera::fromFieldOfView(320, 320, 60.0);
+  Pose T_world_cam = Pose::Identity();
+  T_world_cam.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // nadir: optical z down, image y toward -y
+  T_world_cam.translation() = Eigen::Vector3d(-15.0, 0.0, 40.0);
+  cv::Mat gray(camera.height(), camera.width(), CV_8UC1);
+  for (int r = 0; r < gray.rows; ++r)
+    for (int c = 0; c < gray.cols; ++c) {
+      const Eigen::Vector3d d = T_world_cam.linear() * camera.distortedPixelToBearing({double(c), double(r)});
+      const Eigen::Vector3d p = T_world_cam.translation() - T_world_cam.translation().z() / d.z() * d;
+      const bool shadow = std::abs(p.x() + 15.0) <= 1.0 && std::abs(p.y()) <= 1.0;
+      const bool odd = (int(std::floor(p.x())) + int(std::floor(p.y()))) % 2 != 0;
+      gray.at<uint8_t>(r, c) = shadow ? 3 : (odd ? 150 : 90);
+    }
+  MapEvents events = pointsOnSurface();
+  MapKeyframeState kf;
+  kf.id = 1;
+  kf.T_world_cam = T_world_cam;
+  events.keyframes_added.push_back(kf);
+
+  for (const bool enabled : {true, false}) {
+    config.shadows.enabled = enabled;
+    HazardMapper mapper(config);
+    mapper.setCamera(camera);
+    EXPECT_EQ(mapper.apply(events, true, gray).shadow_view_added, enabled);
+    const HazardProducts products = mapper.products();
+    ASSERT_FALSE(products.sites.sites.empty()) << products.sites.reason;
+    const LandingSite& best = products.sites.sites.front();
+    const GridGeometry& g = products.terrain.grids.geometry;
+    int col = 0, row = 0;
+    ASSERT_TRUE(g.cellAt(-15.0, 0.0, &col, &row));
+    if (enabled) {
+      ASSERT_TRUE(products.terrain.grids.layers.count("shadow_fraction"));
+      EXPECT_EQ(products.terrain.grids.layers.at("shadow_fraction").at<float>(row, col), 1.0f);
+      EXPECT_EQ(products.hazard.at<uint8_t>(row, col), kUnknown);   // relief unseen
+      EXPECT_NEAR(products.shadows.cells_shadowed, 16 + 4 * 4, 8);  // ~ (2 m / 0.5 m + 1)^2 cells
+      // Clear of the square by the dispersion: Chebyshev distance from its centre >= 1 m + 3 m.
+      EXPECT_GE(std::max(std::abs(best.x_m + 15.0), std::abs(best.y_m)),
+                1.0 + config.sites.min_clearance_m - 0.5);
+    } else {
+      EXPECT_FALSE(products.terrain.grids.layers.count("shadow_fraction"));
+      EXPECT_EQ(products.hazard.at<uint8_t>(row, col), kSafe);
+      EXPECT_DOUBLE_EQ(best.x_m, -15.0);
+      EXPECT_DOUBLE_EQ(best.y_m, 0.0);
+    }
+  }
+}
+
 TEST(HazardMapper, DensifiesKeyframesOnlyOnceMetric) {
   HazardMapper mapper(smallArea());
   MapEvents events;

@@ -137,6 +137,54 @@ TEST(LandingSites, OfTwoEqualSitesTheNearerToTheTargetComesFirst) {
   EXPECT_DOUBLE_EQ(r.sites[0].x_m, 20.0);
 }
 
+TEST(LandingSites, CellsSeenInShadowAreNotSafe) {
+  // Two equal discs as above; a shadow (fraction 1) 2 m across at the centre of the nearer one: the
+  // slope and roughness say nothing of it (a rock smaller than the map's support). The nearer disc then has
+  // no cell with 3 m clearance, so the farther one is chosen; without the layer, or with shadows never a
+  // hazard, the nearer one.
+  GridSet g = hazardField(121, 61, -30.0, -15.0);
+  paintDisc(&g, -10.0, 0.0, 5.0, 2.0f, 0.05f);
+  paintDisc(&g, 20.0, 0.0, 5.0, 2.0f, 0.05f);
+  LandingSiteParams params;
+  params.max_distance_from_target_m = 50.0;
+  LandingSiteResult r = findLandingSites(g, HazardThresholds(), params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_DOUBLE_EQ(r.sites[0].x_m, -10.0);
+
+  cv::Mat shadow = g.geometry.newLayer(0.0f);
+  for (int row = 0; row < g.geometry.rows; ++row)
+    for (int col = 0; col < g.geometry.cols; ++col) {
+      if (std::hypot(g.geometry.x_m(col) - (-10.0), g.geometry.y_m(row)) <= 1.0)
+        shadow.at<float>(row, col) = 1.0f;
+      if (g.geometry.x_m(col) > 25.0) shadow.at<float>(row, col) = kNaN;  // not seen: no information
+    }
+  g.layers["shadow_fraction"] = shadow;
+  r = findLandingSites(g, HazardThresholds(), params);
+  ASSERT_EQ(r.sites.size(), 1u) << r.reason;
+  EXPECT_DOUBLE_EQ(r.sites[0].x_m, 20.0);
+  // A cell dark in half of its views is still safe (the default limit: more than half).
+  shadow.setTo(0.5f, shadow == 1.0f);
+  r = findLandingSites(g, HazardThresholds(), params);
+  ASSERT_FALSE(r.sites.empty());
+  EXPECT_DOUBLE_EQ(r.sites[0].x_m, -10.0);
+  shadow.setTo(1.0f, shadow == 0.5f);
+  HazardThresholds ignore_shadows;
+  ignore_shadows.max_shadow_fraction = 1.0;
+  r = findLandingSites(g, ignore_shadows, params);
+  ASSERT_FALSE(r.sites.empty());
+  EXPECT_DOUBLE_EQ(r.sites[0].x_m, -10.0);
+  // The hazard mask has the shadow unknown.
+  const cv::Mat mask = hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], shadow, HazardThresholds());
+  int col = 0, row = 0;
+  ASSERT_TRUE(g.geometry.cellAt(-10.0, 0.5, &col, &row));
+  EXPECT_EQ(mask.at<uint8_t>(row, col), kUnknown);
+  ASSERT_TRUE(g.geometry.cellAt(-10.0, -3.0, &col, &row));
+  EXPECT_EQ(mask.at<uint8_t>(row, col), kSafe);
+  HazardThresholds bad;
+  bad.max_shadow_fraction = 1.5;
+  EXPECT_THROW(findLandingSites(g, bad, params), std::invalid_argument);
+}
+
 TEST(LandingSites, UnknownCellsAreNeverSafe) {
   const HazardThresholds t;
   // An unknown slope 1.5 m from the disc centre: the centre's clearance drops to 1.5 m, so it is out.
