@@ -4,99 +4,347 @@
 For each rendered dataset (with its groundtruth_terrain grids): one fused navigation run with the hazard map
 (`vo_run --config config/lunar_fused.yaml --initial-state-from-groundtruth --output-terrain DIR`, the map at the
 end of the sequence), then, for each target on a grid over the landing area, `terrain_eval` chooses the best site
-within reach of that target on the estimated map (findLandingSites with the map's own sigmas and the given
-confidence k) and checks it against the true terrain (every true cell within the clearance known and safe).
+within reach of that target on the estimated map (findLandingSites with the map's own sigmas; confidence k and
+the rest from config/hazard.yaml unless given) and checks it against the true terrain (every true cell within the
+clearance known and safe).
+
+Two ways to get the datasets:
+  --datasets DIR [DIR ...]   renders that exist (e.g. the benchmark's);
+  --runs N                   a Monte Carlo campaign: N renders drawn from the campaign seed, each with its own
+                             terrain seed, DEM placement, Sun elevation and azimuth and sensor seed (the
+                             dispersions and the draw of scripts/vo_campaign.py, docs/campaigns.md), the
+                             sequences taken in turn. To keep 50 renders of 1024 px affordable, a run renders
+                             only the end of the approach (--start-s, default 40 s: 184 m above the ground, where
+                             the ground the map is built from starts to be seen at its resolution) and hands the
+                             navigation its state there with a dispersed error (--init-position-sigma-m per axis,
+                             --init-attitude-sigma-deg): the fused navigation's own error at 40 s of the full
+                             approach, 1.0-2.0 m on the three flight renders (docs/terrain/README.md).
 
 Each (dataset, target) pair is one trial. Trials on one dataset share its map, so they are not independent: the
-summary gives both counts. Prints a table and a summary line; --json writes every trial.
+summary counts them, the distinct sites, and, per dataset, the site chosen for the planned target (0, 0). Prints a
+table and a summary; --json writes every trial; with --runs, OUT/summary.md and OUT/summary.json.
 
-  scripts/hazard_campaign.py --datasets DIR [DIR ...] [--out output/hazard_campaign] [--confidence-k 2]
-                             [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F] [--reuse]
-                             [--json FILE]
+  scripts/hazard_campaign.py --datasets DIR [DIR ...] [--out output/hazard_campaign] [common options]
+  scripts/hazard_campaign.py --runs 50 [--seed 1] [--sequences approach_down,approach_30deg,approach_nozzle]
+                             [--size 1024] [--start-s 40] [--sensors flight] [--jobs 2] [--keep-images] [common]
+  common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
+          [--reuse] [--json FILE] [--write-docs DIR]
 """
 import argparse
+import concurrent.futures
 import json
 import os
+import re
+import shutil
+import statistics
 import subprocess
 import sys
+import threading
+import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vo_campaign  # noqa: E402  (the dispersions and their draw: one place)
+
 BUILD = os.environ.get("PLANETARY_VO_BUILD", os.path.join(ROOT, "build"))
 BIN = os.path.join(BUILD, "devel", "lib", "planetary_vo")
-# Targets 64 m apart over the 256 m landing area (the default search radius is 50 m): nine per dataset.
+# Targets 64 m apart over the 256 m landing area: nine per dataset; (0, 0) is the planned site.
 DEFAULT_TARGETS = [(x, y) for y in (-64.0, 0.0, 64.0) for x in (-64.0, 0.0, 64.0)]
+MAP_KEYS = ["surface_coverage", "slope_rmse_deg", "hazard_precision", "hazard_recall", "slope_within_2sigma"]
+PRINT_LOCK = threading.Lock()
+
+
+class ToolFailed(Exception):
+    pass
 
 
 def run(cmd, log):
     with open(log, "w") as out:
-        rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT)
+        out.write("$ " + " ".join(cmd) + "\n")
+        out.flush()
+        rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
     if rc != 0:
-        sys.exit("hazard_campaign: %s failed (rc %d), see %s" % (os.path.basename(cmd[0]), rc, log))
+        raise ToolFailed("%s failed (rc %d), see %s" % (os.path.basename(cmd[0]), rc, log))
+
+
+def say(text):
+    with PRINT_LOCK:
+        print(text)
+        sys.stdout.flush()
+
+
+def evaluate(dataset, work, name, a, targets, vo_extra=()):
+    """The navigation run with the hazard map on one dataset, then one terrain_eval per target: (trials, map
+    scores at the map's resolution and as sampled, the confidence k in force)."""
+    terrain = os.path.join(work, "terrain")
+    os.makedirs(work, exist_ok=True)
+    if not (a.reuse and os.path.exists(os.path.join(terrain, "terrain.yaml"))):
+        cmd = [os.path.join(BIN, "vo_run"), "--dataset", dataset, "--config", a.config,
+               "--initial-state-from-groundtruth", "--quiet", "--output", os.path.join(work, "trajectory.txt"),
+               "--output-terrain", terrain] + list(vo_extra)
+        if a.hazard_config:
+            cmd += ["--hazard-config", a.hazard_config]
+        run(cmd, os.path.join(work, "vo_run.log"))
+    trials, scores, k = [], None, None
+    for (x, y) in targets:
+        tag = "t%+04.0f%+04.0f" % (x, y)
+        js = os.path.join(work, tag + ".json")
+        cmd = [os.path.join(BIN, "terrain_eval"), "--gt", dataset, "--est", terrain, "--target-x-m", str(x),
+               "--target-y-m", str(y), "--json", js]
+        if a.confidence_k is not None:
+            cmd += ["--confidence-k", str(a.confidence_k)]
+        if a.max_shadow_fraction is not None:
+            cmd += ["--max-shadow-fraction", str(a.max_shadow_fraction)]
+        log = os.path.join(work, tag + ".txt")
+        run(cmd, log)
+        m = re.search(r"confidence k = ([0-9.]+)", open(log).read())
+        k = float(m.group(1)) if m else k
+        result = json.load(open(js))
+        if scores is None:
+            scores = {res: {key: result.get(res, {}).get(key) for key in MAP_KEYS}
+                      for res in ("at_map_resolution", "full_resolution")}
+        trials.append({"dataset": name, "target_x_m": x, "target_y_m": y, "site": result.get("landing_site")})
+    return trials, scores, k
+
+
+def trial_row(t):
+    s = t["site"]
+    if s is None:
+        return "| %s | (%.0f, %.0f) | none | | | no site |" % (t["dataset"], t["target_x_m"], t["target_y_m"])
+    return "| %s | (%.0f, %.0f) | (%.1f, %.1f) | %.1f deg / %.2f m | %s deg / %s m | %s |" % (
+        t["dataset"], t["target_x_m"], t["target_y_m"], s["x_m"], s["y_m"], s["slope_deg"], s["roughness_m"],
+        "%.1f" % s["true_slope_deg"] if s["true_slope_deg"] is not None else "n/a",
+        "%.2f" % s["true_roughness_m"] if s["true_roughness_m"] is not None else "n/a",
+        "safe" if s["truly_safe"] else "UNSAFE (%d hazard, %d unknown cells)" % (s["cells_hazard"],
+                                                                                 s["cells_unknown"]))
+
+
+def plan_runs(a):
+    disp = {
+        "terrain_seed": None, "sensor_seed": None, "dems": ["apollo15_gld100"],
+        "placement_ranks": vo_campaign.parse_int_range(a.placement_ranks, "placement-ranks"),
+        "sun_elevation_deg": vo_campaign.parse_range(a.sun_elevation, "sun-elevation"),
+        "sun_azimuth_deg": vo_campaign.parse_range(a.sun_azimuth, "sun-azimuth"),
+        "init_position_sigma_m": a.init_position_sigma_m, "init_attitude_sigma_deg": a.init_attitude_sigma_deg,
+        "init_scale_sigma_percent": 0.0,
+    }
+    sequences = [s for s in a.sequences.split(",") if s]
+    runs = []
+    for k in range(a.runs):
+        p = vo_campaign.draw_run_params(disp, a.seed, k)
+        p["sequence"] = sequences[k % len(sequences)]
+        p["id"] = "run_%03d" % k
+        runs.append(p)
+    return runs
+
+
+def execute_run(p, a, targets):
+    work = os.path.join(a.out, "runs", p["id"])
+    dataset = os.path.join(work, "dataset")
+    os.makedirs(work, exist_ok=True)
+    t0 = time.time()
+    result = {"params": p, "status": "ok", "reason": "", "trials": [], "scores": None}
+    render = [os.path.join(BIN, "lunar_render"), "--sequence", p["sequence"], "--output", dataset,
+              "--width", str(a.size), "--height", str(a.size), "--sensors", a.sensors,
+              "--seed", str(p["terrain_seed"]), "--dem", p["dem"], "--placement-rank", str(p["placement_rank"]),
+              "--sun-elevation", "%g" % p["sun_elevation_deg"], "--sun-azimuth", "%g" % p["sun_azimuth_deg"],
+              "--sensor-seed", str(p["sensor_seed"]), "--start", "%g" % a.start_s,
+              "--threads", str(a.render_threads), "--no-progress"]
+    try:
+        if not (a.reuse and os.path.exists(os.path.join(work, "terrain", "terrain.yaml"))):
+            run(render, os.path.join(work, "render.log"))
+        vo_extra = ["--initial-error-m", ",".join("%g" % v for v in p["initial_position_error_m"]),
+                    "--initial-error-deg", ",".join("%g" % v for v in p["initial_attitude_error_deg"])]
+        result["trials"], result["scores"], result["confidence_k"] = evaluate(
+            dataset, work, p["id"], a, targets, vo_extra)
+    except ToolFailed as e:
+        result["status"], result["reason"] = "failed", str(e)
+    if not a.keep_images and os.path.isdir(os.path.join(dataset, "images")):
+        shutil.rmtree(os.path.join(dataset, "images"), ignore_errors=True)
+    result["seconds"] = round(time.time() - t0, 1)
+    with open(os.path.join(work, "result.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    return result
+
+
+def planned_site(trials):
+    for t in trials:
+        if t["target_x_m"] == 0.0 and t["target_y_m"] == 0.0:
+            return t
+    return None
+
+
+def stats(values):
+    v = [x for x in values if x is not None]
+    if not v:
+        return "n/a"
+    return "median %.3g, min %.3g, max %.3g (%d)" % (statistics.median(v), min(v), max(v), len(v))
+
+
+def summarise(results, a, k):
+    trials = [t for r in results for t in r["trials"]]
+    chosen = [t for t in trials if t["site"] is not None]
+    unsafe = [t for t in chosen if not t["site"]["truly_safe"]]
+    distinct = {(t["dataset"], t["site"]["x_m"], t["site"]["y_m"]): t["site"]["truly_safe"] for t in chosen}
+    failed = [r for r in results if r["status"] != "ok"]
+    planned = [planned_site(r["trials"]) for r in results if r["status"] == "ok"]
+    planned_chosen = [t for t in planned if t is not None and t["site"] is not None]
+    planned_unsafe = [t for t in planned_chosen if not t["site"]["truly_safe"]]
+    lines = ["# Landing-site safety campaign", ""]
+    lines.append("Command: `scripts/hazard_campaign.py %s`" % " ".join(sys.argv[1:]))
+    lines.append("")
+    lines.append("Conditions: %d runs (campaign seed %d), sequences %s in turn, %d px, %s sensors, from t = %g s "
+                 "(handed-over state error sigma %g m per axis, %g deg); Sun elevation %s deg, azimuth %s deg, "
+                 "placement ranks %s, terrain and sensor seeds drawn; navigation config %s; hazard config %s; "
+                 "confidence k = %s; %d targets per map." % (
+                     len(results), a.seed, a.sequences, a.size, a.sensors, a.start_s, a.init_position_sigma_m,
+                     a.init_attitude_sigma_deg, a.sun_elevation, a.sun_azimuth, a.placement_ranks,
+                     os.path.relpath(a.config, ROOT), a.hazard_config or "config/hazard.yaml's defaults",
+                     "%g" % k if k is not None else "n/a", len(a.target_list)))
+    lines.append("")
+    lines.append("| | count |")
+    lines.append("|---|---|")
+    lines.append("| runs completed / failed | %d / %d |" % (len(results) - len(failed), len(failed)))
+    lines.append("| site chosen for the planned target (0, 0): truly safe / UNSAFE / none | %d / %d / %d |" % (
+        len(planned_chosen) - len(planned_unsafe), len(planned_unsafe), len(planned) - len(planned_chosen)))
+    lines.append("| all trials: sites chosen / truly safe / UNSAFE / no site | %d / %d / %d / %d |" % (
+        len(chosen), len(chosen) - len(unsafe), len(unsafe), len(trials) - len(chosen)))
+    lines.append("| distinct sites chosen: truly safe / UNSAFE | %d / %d |" % (
+        sum(1 for v in distinct.values() if v), sum(1 for v in distinct.values() if not v)))
+    lines.append("")
+    lines.append("Maps (one per run, the terrain model at the end of the approach):")
+    lines.append("")
+    for res, title in (("at_map_resolution", "at the map's resolution"), ("full_resolution", "as sampled")):
+        for key in MAP_KEYS:
+            lines.append("- %s, %s: %s" % (key, title, stats([r["scores"][res][key] for r in results
+                                                               if r["scores"]])))
+    lines.append("")
+    lines.append("| run | sequence | Sun el / az (deg) | placement | coverage | slope RMSE (map res.) | "
+                 "precision / recall (map res.) | site for (0, 0) | verdict |")
+    lines.append("|---|---|---|---|---|---|---|---|---|")
+    for r in results:
+        p = r["params"]
+        s = r["scores"]["at_map_resolution"] if r["scores"] else {}
+        t = planned_site(r["trials"])
+        site = t["site"] if t else None
+        fmt = lambda v, f: (f % v) if v is not None else "n/a"  # noqa: E731
+        lines.append("| %s | %s | %.1f / %.1f | %d | %s | %s | %s / %s | %s | %s |" % (
+            p["id"], p["sequence"], p["sun_elevation_deg"], p["sun_azimuth_deg"], p["placement_rank"],
+            fmt(s.get("surface_coverage"), "%.3f"), fmt(s.get("slope_rmse_deg"), "%.2f"),
+            fmt(s.get("hazard_precision"), "%.2f"), fmt(s.get("hazard_recall"), "%.2f"),
+            "(%.1f, %.1f)" % (site["x_m"], site["y_m"]) if site else "none",
+            r["reason"] if r["status"] != "ok" else (
+                "none" if not site else ("safe" if site["truly_safe"] else "UNSAFE (%d hazard cells)" %
+                                         site["cells_hazard"]))))
+    if unsafe:
+        lines += ["", "Unsafe trials:", ""] + [trial_row(t) for t in unsafe]
+    return "\n".join(lines) + "\n", {
+        "runs": len(results), "failed": len(failed), "planned_safe": len(planned_chosen) - len(planned_unsafe),
+        "planned_unsafe": len(planned_unsafe), "planned_none": len(planned) - len(planned_chosen),
+        "trials": len(trials), "chosen": len(chosen), "unsafe": len(unsafe), "confidence_k": k,
+        "distinct_safe": sum(1 for v in distinct.values() if v),
+        "distinct_unsafe": sum(1 for v in distinct.values() if not v)}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--datasets", nargs="+", required=True)
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--datasets", nargs="+")
+    src.add_argument("--runs", type=int)
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "hazard_campaign"))
     ap.add_argument("--config", default=os.path.join(ROOT, "config", "lunar_fused.yaml"))
     ap.add_argument("--hazard-config", default="", help="vo_run --hazard-config (default: config/hazard.yaml's values)")
-    ap.add_argument("--confidence-k", type=float, default=2.0)
+    ap.add_argument("--confidence-k", type=float, default=None,
+                    help="terrain_eval --confidence-k (default: config/hazard.yaml's sites.confidence_k)")
     ap.add_argument("--max-shadow-fraction", type=float, default=None,
-                    help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not hazards)")
+                    help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not unknown)")
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')
     ap.add_argument("--reuse", action="store_true", help="keep a dataset's existing terrain map")
     ap.add_argument("--json", default="")
+    ap.add_argument("--write-docs", default="", help="copy summary.md and summary.json there (--runs)")
+    g = ap.add_argument_group("Monte Carlo campaign (--runs)")
+    g.add_argument("--seed", type=int, default=1)
+    g.add_argument("--sequences", default="approach_down,approach_30deg,approach_nozzle")
+    g.add_argument("--size", type=int, default=1024)
+    g.add_argument("--sensors", default="flight")
+    g.add_argument("--start-s", type=float, default=40.0)
+    g.add_argument("--sun-elevation", default=vo_campaign.DEFAULTS["sun_elevation"])
+    g.add_argument("--sun-azimuth", default=vo_campaign.DEFAULTS["sun_azimuth"])
+    g.add_argument("--placement-ranks", default=vo_campaign.DEFAULTS["placement_ranks"])
+    g.add_argument("--init-position-sigma-m", type=float, default=1.0)
+    g.add_argument("--init-attitude-sigma-deg", type=float, default=vo_campaign.DEFAULTS["init_attitude_sigma_deg"])
+    g.add_argument("--jobs", type=int, default=max(1, len(os.sched_getaffinity(0))))
+    g.add_argument("--render-threads", type=int, default=1)
+    g.add_argument("--keep-images", action="store_true", help="keep each run's images (about 220 MB at 1024 px)")
     a = ap.parse_args()
-    targets = DEFAULT_TARGETS
+    a.target_list = DEFAULT_TARGETS
     if a.targets:
-        targets = [tuple(float(v) for v in t.split(",")) for t in a.targets.split(";") if t.strip()]
+        a.target_list = [tuple(float(v) for v in t.split(",")) for t in a.targets.split(";") if t.strip()]
     os.makedirs(a.out, exist_ok=True)
-    trials = []
     print("| dataset | target (m) | site (m) | est. slope / roughness | true slope / roughness | verdict |")
     print("|---|---|---|---|---|---|")
-    for dataset in a.datasets:
-        name = os.path.basename(os.path.normpath(dataset))
-        work = os.path.join(a.out, name)
-        terrain = os.path.join(work, "terrain")
-        os.makedirs(work, exist_ok=True)
-        if not (a.reuse and os.path.exists(os.path.join(terrain, "terrain.yaml"))):
-            cmd = [os.path.join(BIN, "vo_run"), "--dataset", dataset, "--config", a.config,
-                   "--initial-state-from-groundtruth", "--quiet", "--output", os.path.join(work, "trajectory.txt"),
-                   "--output-terrain", terrain]
-            if a.hazard_config:
-                cmd += ["--hazard-config", a.hazard_config]
-            run(cmd, os.path.join(work, "vo_run.log"))
-        for (x, y) in targets:
-            tag = "t%+04.0f%+04.0f" % (x, y)
-            js = os.path.join(work, tag + ".json")
-            run([os.path.join(BIN, "terrain_eval"), "--gt", dataset, "--est", terrain, "--target-x-m", str(x),
-                 "--target-y-m", str(y), "--confidence-k", str(a.confidence_k), "--json", js]
-                + (["--max-shadow-fraction", str(a.max_shadow_fraction)] if a.max_shadow_fraction is not None else []),
-                os.path.join(work, tag + ".txt"))
-            site = json.load(open(js)).get("landing_site")
-            trial = {"dataset": name, "target_x_m": x, "target_y_m": y, "site": site}
-            trials.append(trial)
-            if site is None:
-                print("| %s | (%.0f, %.0f) | none | | | no site |" % (name, x, y))
-            else:
-                print("| %s | (%.0f, %.0f) | (%.1f, %.1f) | %.1f deg / %.2f m | %s deg / %s m | %s |" % (
-                    name, x, y, site["x_m"], site["y_m"], site["slope_deg"], site["roughness_m"],
-                    "%.1f" % site["true_slope_deg"] if site["true_slope_deg"] is not None else "n/a",
-                    "%.2f" % site["true_roughness_m"] if site["true_roughness_m"] is not None else "n/a",
-                    "safe" if site["truly_safe"] else "UNSAFE (%d hazard, %d unknown cells)" % (
-                        site["cells_hazard"], site["cells_unknown"])))
-            sys.stdout.flush()
-    chosen = [t for t in trials if t["site"] is not None]
-    unsafe = [t for t in chosen if not t["site"]["truly_safe"]]
-    datasets_unsafe = sorted({t["dataset"] for t in unsafe})
-    print("\nhazard_campaign: %d trials on %d datasets (k = %.1f): %d sites chosen, %d truly safe, %d UNSAFE "
-          "(on %d of %d datasets)" % (len(trials), len(a.datasets), a.confidence_k, len(chosen),
-                                       len(chosen) - len(unsafe), len(unsafe), len(datasets_unsafe),
-                                       len(a.datasets)))
+    k = None
+    if a.datasets:
+        results = []
+        for dataset in a.datasets:
+            name = os.path.basename(os.path.normpath(dataset))
+            try:
+                trials, scores, k = evaluate(dataset, os.path.join(a.out, name), name, a, a.target_list)
+            except ToolFailed as e:
+                sys.exit("hazard_campaign: " + str(e))
+            for t in trials:
+                say(trial_row(t))
+            results.append({"params": {"id": name}, "status": "ok", "trials": trials, "scores": scores})
+        trials = [t for r in results for t in r["trials"]]
+        chosen = [t for t in trials if t["site"] is not None]
+        unsafe = [t for t in chosen if not t["site"]["truly_safe"]]
+        print("\nhazard_campaign: %d trials on %d datasets (k = %s): %d sites chosen, %d truly safe, %d UNSAFE "
+              "(on %d of %d datasets)" % (len(trials), len(a.datasets), "%g" % k if k is not None else "n/a",
+                                           len(chosen), len(chosen) - len(unsafe), len(unsafe),
+                                           len({t["dataset"] for t in unsafe}), len(a.datasets)))
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump({"confidence_k": k, "trials": trials}, f, indent=1)
+        return 1 if unsafe else 0
+
+    runs = plan_runs(a)
+    with open(os.path.join(a.out, "plan.json"), "w") as f:
+        json.dump({"argv": sys.argv[1:], "runs": runs}, f, indent=1)
+    t0 = time.time()
+    results = [None] * len(runs)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
+        futures = {pool.submit(execute_run, p, a, a.target_list): i for i, p in enumerate(runs)}
+        done = 0
+        for fut in concurrent.futures.as_completed(futures):
+            i = futures[fut]
+            r = fut.result()
+            results[i] = r
+            done += 1
+            t = planned_site(r["trials"])
+            verdict = r["reason"] if r["status"] != "ok" else (
+                "no site for (0, 0)" if not t or not t["site"] else
+                ("site for (0, 0) safe" if t["site"]["truly_safe"] else "site for (0, 0) UNSAFE"))
+            n_unsafe = sum(1 for t in r["trials"] if t["site"] and not t["site"]["truly_safe"])
+            say("[%d/%d] %s %s sun %.1f deg: %s; %d unsafe of %d trials (%.0f s, elapsed %.0f min)" % (
+                done, len(runs), r["params"]["id"], r["params"]["sequence"], r["params"]["sun_elevation_deg"],
+                verdict, n_unsafe, len(r["trials"]), r["seconds"], (time.time() - t0) / 60.0))
+            if r.get("confidence_k") is not None:
+                k = r["confidence_k"]
+    text, summary = summarise(results, a, k)
+    with open(os.path.join(a.out, "summary.md"), "w") as f:
+        f.write(text)
+    with open(os.path.join(a.out, "summary.json"), "w") as f:
+        json.dump({"summary": summary, "runs": results}, f, indent=1)
     if a.json:
         with open(a.json, "w") as f:
-            json.dump({"confidence_k": a.confidence_k, "trials": trials}, f, indent=1)
-    return 1 if unsafe else 0
+            json.dump({"confidence_k": k, "trials": [t for r in results for t in r["trials"]]}, f, indent=1)
+    if a.write_docs:
+        os.makedirs(a.write_docs, exist_ok=True)
+        shutil.copy(os.path.join(a.out, "summary.md"), a.write_docs)
+        shutil.copy(os.path.join(a.out, "summary.json"), a.write_docs)
+    print()
+    print(text)
+    return 1 if summary["unsafe"] or summary["failed"] else 0
 
 
 if __name__ == "__main__":

@@ -55,8 +55,11 @@ SequenceSetup prepareSequence(const SequenceOptions& o) {
   rs.num_threads = o.num_threads;
   const double duration =
       o.duration_s < 0 ? trajectory.duration() : std::min(o.duration_s, trajectory.duration());
-  const size_t frames = static_cast<size_t>(std::floor(duration * o.rate_hz + 1e-9)) + 1;
-  return SequenceSetup{spec, dem, terrain, trajectory, rs, duration, frames};
+  if (!(o.start_s >= 0.0) || !(o.start_s < duration))
+    throw std::invalid_argument("the start time must be >= 0 and below the end of the sequence (" +
+                                std::to_string(duration) + " s)");
+  const size_t frames = static_cast<size_t>(std::floor((duration - o.start_s) * o.rate_hz + 1e-9)) + 1;
+  return SequenceSetup{spec, dem, terrain, trajectory, rs, duration, o.start_s, frames};
 }
 
 namespace {
@@ -81,6 +84,7 @@ std::string sequenceParamHash(const SequenceOptions& o) {
      << o.altimeter_rate_hz << '|' << o.save_depth;
   // Appended only when not the defaults of renderer 1.2, so that its (ideal) renders keep their hash.
   if (o.placement_rank != 0) os << "|placement_rank " << o.placement_rank;
+  if (o.start_s != 0.0) os << "|start_s " << o.start_s;
   if (o.sensors.camera.enabled)
     os << "|camera " << sensors::yamlText(sensors::toYaml(o.sensors.camera)) << "|sensor_seed "
        << o.sensor_seed;
@@ -275,6 +279,7 @@ std::string sequenceYaml(const SequenceOptions& o, const SequenceSetup& setup, c
        "T_world_cam\"\n"
     << "trajectory:\n"
     << setup.trajectory.describeYaml(2) << "camera_mode: " << toString(setup.spec.mode) << "\n"
+    << "start_s: " << setup.start_s << "\n"
     << "duration_s: " << setup.duration_s << "\n"
     << "rate_hz: " << o.rate_hz << "\n"
     << "frames: " << setup.num_frames << "\n"
@@ -355,7 +360,7 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
     if (images_cached) {
       result.images_reused = true;
       for (size_t i = 0; i < setup.num_frames; ++i) {
-        const double t = static_cast<double>(i) / o.rate_hz;
+        const double t = setup.frameTime(i, o.rate_hz);
         writer.addExistingFrame(t, setup.trajectory.state(t).T_world_cam());
       }
     } else {
@@ -373,7 +378,7 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
       }
       cv::Mat2f disp_start, disp_end;
       for (size_t i = 0; i < setup.num_frames; ++i) {
-        const double t = static_cast<double>(i) / o.rate_hz;
+        const double t = setup.frameTime(i, o.rate_hz);
         const Pose T = setup.trajectory.state(t).T_world_cam();
         const RenderOutput out = renderer.render(T, i);
         if (o.verbose) std::fprintf(stderr, "%s\n", formatStats(i, out.stats).c_str());
@@ -418,9 +423,9 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
 
     // IMU: the true sample of the trajectory through the error model; the true state with the model's biases.
     sensors::ImuErrorModel imu(sp.imu, o.imu_rate_hz, sensors::subSeed(o.sensor_seed, "imu"));
-    const int n_imu = static_cast<int>(std::floor(setup.duration_s * o.imu_rate_hz + 1e-9));
+    const int n_imu = static_cast<int>(std::floor((setup.duration_s - setup.start_s) * o.imu_rate_hz + 1e-9));
     for (int i = 0; i <= n_imu; ++i) {
-      const double t = i / o.imu_rate_hz;
+      const double t = setup.frameTime(i, o.imu_rate_hz);
       writer.addImu(imu.measure(setup.trajectory.imu(t)));
       const TrajectoryState s = setup.trajectory.state(t);
       writer.addGroundTruthState({t, s.T_world_cam(), s.velocity, imu.trueErrors().gyro_bias_radps,
@@ -436,10 +441,11 @@ SequenceResult renderSequence(const SequenceOptions& o, const ProgressFn& progre
     // incidence, outlier) to groundtruth_altimeter.txt.
     sensors::AltimeterModel altimeter(sp.altimeter, sensors::subSeed(o.sensor_seed, "altimeter"));
     const sensors::RayCaster caster = terrainRayCaster(*setup.terrain);
-    const int n_alt = static_cast<int>(std::floor(setup.duration_s * o.altimeter_rate_hz + 1e-9));
+    const int n_alt =
+        static_cast<int>(std::floor((setup.duration_s - setup.start_s) * o.altimeter_rate_hz + 1e-9));
     double range_bias_m = 0.0;
     for (int i = 0; i <= n_alt; ++i) {
-      const double t = i / o.altimeter_rate_hz;
+      const double t = setup.frameTime(i, o.altimeter_rate_hz);
       const TrajectoryState s = setup.trajectory.state(t);
       const sensors::AltimeterReading r =
           altimeter.measure(t, s.position, s.R_world_cam.col(2), -s.R_world_cam.col(1), caster);

@@ -57,7 +57,7 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"max_window_footprint_m", &c->densifier.max_window_footprint_m}}},
       {"shadows",
        {{"enabled", &c->shadows.enabled},
-        {"dark_fraction_of_median", &c->shadows.dark_fraction_of_median},
+        {"dark_fraction_of_bright", &c->shadows.dark_fraction_of_bright},
         {"max_pixel_footprint_m", &c->shadows.max_pixel_footprint_m},
         {"max_keyframes", &c->shadows.max_keyframes}}},
       {"thresholds",

@@ -13,11 +13,11 @@ ShadowMap::ShadowMap(const PinholeCamera& camera, const ShadowMapConfig& config)
     : camera_(camera), config_(config) {
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("ShadowMap: invalid camera: " + why);
-  if (!(config_.dark_fraction_of_median > 0.0 && config_.dark_fraction_of_median < 1.0) ||
+  if (!(config_.dark_fraction_of_bright > 0.0 && config_.dark_fraction_of_bright < 1.0) ||
       !(config_.max_pixel_footprint_m > 0.0 && std::isfinite(config_.max_pixel_footprint_m)) ||
       config_.max_keyframes < 1)
     throw std::invalid_argument(
-        "ShadowMap: invalid configuration (dark_fraction_of_median in (0, 1), max_pixel_footprint_m > 0, "
+        "ShadowMap: invalid configuration (dark_fraction_of_bright in (0, 1), max_pixel_footprint_m > 0, "
         "max_keyframes >= 1)");
   words_per_row_ = (camera_.width() + 63) / 64;
 }
@@ -28,21 +28,21 @@ cv::Mat ShadowMap::darkMask(const cv::Mat& gray) const {
                                 std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
                                 std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()) +
                                 ")");
-  // Median from the histogram.
+  // The 90th percentile from the histogram.
   int histogram[256] = {0};
   for (int row = 0; row < gray.rows; ++row) {
     const uint8_t* p = gray.ptr<uint8_t>(row);
     for (int col = 0; col < gray.cols; ++col) ++histogram[p[col]];
   }
-  const long half = (static_cast<long>(gray.total()) + 1) / 2;
+  const long rank = static_cast<long>(std::ceil(0.9 * static_cast<double>(gray.total())));
   long seen = 0;
-  int median = 0;
-  for (; median < 255; ++median) {
-    seen += histogram[median];
-    if (seen >= half) break;
+  int bright = 0;
+  for (; bright < 255; ++bright) {
+    seen += histogram[bright];
+    if (seen >= rank) break;
   }
-  // Dark: strictly below the fraction of the median (a black image has nothing dark: nothing to compare).
-  const double limit = config_.dark_fraction_of_median * median;
+  // Dark: strictly below the fraction of it (a black image has nothing dark: nothing to compare).
+  const double limit = config_.dark_fraction_of_bright * bright;
   cv::Mat mask;
   cv::compare(gray, cv::Scalar(limit), mask, cv::CMP_LT);
   return mask;

@@ -47,7 +47,11 @@ struct SequenceOptions {
   int width = 1024, height = 1024;
   double fov_deg = 60.0;
   double rate_hz = 10.0;
-  double duration_s = -1.0;  ///< < 0: the whole sequence
+  double duration_s = -1.0;  ///< the sequence up to this time (s); < 0: to its end
+  /// The first frame's time (s): the sequence from here on, every stream (images, IMU, altimeter, ground
+  /// truth) with its own time stamps, e.g. only the end of an approach for a hazard-map campaign. 0: from the
+  /// start. Must be below the end.
+  double start_s = 0.0;
   uint64_t seed = 1;
   double sun_elevation_deg = 12.0;
   double sun_azimuth_deg = 250.0;
@@ -90,8 +94,10 @@ struct SequenceSetup {
   std::shared_ptr<const LunarTerrain> terrain;
   DescentTrajectory trajectory;
   RenderSettings settings;
-  double duration_s = 0.0;
+  double duration_s = 0.0;  ///< the end time (s)
+  double start_s = 0.0;     ///< the first frame's time (s)
   size_t num_frames = 0;
+  double frameTime(size_t i, double rate_hz) const { return start_s + static_cast<double>(i) / rate_hz; }
 };
 /// Loads the DEM, places the trajectory on it and prepares the renderer settings. Throws on bad options.
 SequenceSetup prepareSequence(const SequenceOptions& options);

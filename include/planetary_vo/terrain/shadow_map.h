@@ -10,8 +10,8 @@
 /// true terrain of the rendered landing area (Sun 12 deg), 76 % of the cells in shadow are hazardous
 /// against 20 % of all cells (docs/terrain/README.md).
 ///
-/// A keyframe's image gives a dark mask: the pixels darker than dark_fraction_of_median times the
-/// image's median. The masks of the last max_keyframes keyframes are kept (1 bit per pixel) with their
+/// A keyframe's image gives a dark mask: the pixels darker than dark_fraction_of_bright times the
+/// image's 90th percentile (lit ground, even when most of the image is in shadow at a very low Sun). The masks of the last max_keyframes keyframes are kept (1 bit per pixel) with their
 /// poses. shadowFraction() projects every cell of a known elevation into each of them and counts the views
 /// that see the cell with a pixel covering at most max_pixel_footprint_m of ground (range / focal length,
 /// stretched by the incidence on a level cell), and how many of those saw it dark. The cells are projected
@@ -35,10 +35,11 @@ namespace planetary_vo::terrain {
 
 struct ShadowMapConfig {
   bool enabled = true;
-  /// A pixel is in shadow when darker than this fraction of its image's median. Lit ground at 12 deg Sun
-  /// on the flight camera: median 44 of 255, shadows 3-4 (the black level and the noise); a slope turned
-  /// 9 deg away from a 12 deg Sun receives a quarter of the level ground's light.
-  double dark_fraction_of_median = 0.25;
+  /// A pixel is in shadow when darker than this fraction of its image's 90th percentile. approach_down
+  /// at 100 m, flight camera (8-bit as the VO gets it): Sun 12 deg, 90th percentile 91, shadows 4 (the
+  /// black level and the noise), 20th percentile 14 (dim lit ground); Sun 25 deg: 125, lit ground from 49;
+  /// Sun 45 deg: 152, lit from 110.
+  double dark_fraction_of_bright = 0.1;
   /// A view counts for a cell only when one pixel covers at most this much ground there (m): coarser, a
   /// shadow of a rock is thinner than a pixel. The cell size of the landing area by default.
   double max_pixel_footprint_m = 0.5;

@@ -1,6 +1,7 @@
 /// lunar_render: renders the synthetic Lunar descent sequences (docs/rendering.md) with the sensors' error
 /// models (docs/sensors/).
-///   lunar_render --sequence NAME --output DIR [--width W --height H --rate HZ --duration S --seed N
+///   lunar_render --sequence NAME --output DIR [--width W --height H --rate HZ --duration S --start S --seed
+///   N
 ///                --dem FILE.yaml --placement-rank K --sun-elevation DEG --sun-azimuth DEG
 ///                --sensors flight|ideal --sensor-seed N --imu-grade G --sensor-config FILE.yaml
 ///                --set SECTION.KEY=VALUE ... --noise SIGMA --depth --force --progress --verbose --threads N]
@@ -31,7 +32,8 @@ int usage(const char* msg) {
   if (msg) std::cerr << "lunar_render: " << msg << "\n";
   std::cerr
       << "usage: lunar_render --sequence NAME --output DIR [--width W] [--height H] [--rate HZ] "
-         "[--duration S] [--seed N] [--dem FILE.yaml|NAME] [--placement-rank K] [--sun-elevation DEG] "
+         "[--duration S] [--start S] [--seed N] [--dem FILE.yaml|NAME] [--placement-rank K] [--sun-elevation "
+         "DEG] "
          "[--sun-azimuth DEG] [--sensors flight|ideal] [--sensor-seed N] [--imu-grade "
          "navigation|tactical|mems|ideal] [--sensor-config FILE.yaml] [--set SECTION.KEY=VALUE]... "
          "[--noise SIGMA_DN] [--depth] [--force] [--progress] [--verbose] [--threads N] [--snapshot T]\n"
@@ -45,6 +47,8 @@ int usage(const char* msg) {
          "  --sensor-seed    seed of every sensor error (noise, biases, calibration error, defects); default "
          "1\n"
          "  --seed           seed of the procedural terrain (craters, boulders, roughness); default 1\n"
+         "  --duration, --start  the sequence up to / from that time (s); every stream keeps its time "
+         "stamps\n"
          "  --placement-rank 0 = the best placement of the trajectory on the DEM, k = the k-th next distinct "
          "one\n"
          "  --print-sensors  print the effective sensor parameters as YAML and exit\n";
@@ -84,6 +88,8 @@ int main(int argc, char** argv) {
         o.rate_hz = std::stod(next());
       else if (a == "--duration")
         o.duration_s = std::stod(next());
+      else if (a == "--start")
+        o.start_s = std::stod(next());
       else if (a == "--seed")
         o.seed = std::stoull(next());
       else if (a == "--dem")

@@ -180,6 +180,46 @@ TEST(SequenceRenderer, WritesDatasetAndSkipsWhenUnchanged) {
   EXPECT_FALSE(renderSequence(o).skipped);  // any parameter change re-renders
 }
 
+TEST(SequenceRenderer, StartsWhereAskedWithEveryStreamStampedThere) {
+  // The last 0.3 s of a 0.5 s clip: the frames of the whole clip from 0.2 s, bit for bit (ideal camera), and
+  // IMU, altimeter and ground truth from 0.2 s on their own time stamps.
+  SequenceOptions o;
+  o.sequence = "approach_down";
+  o.dem_yaml = test::dataPath("lunar_dem/apollo17_gld100.yaml");
+  ASSERT_TRUE(test::requireDataFile(o.dem_yaml));
+  o.width = o.height = 64;
+  o.duration_s = 0.5;
+  o.sensors = sensors::sensorPreset("ideal");
+  const std::string whole_dir = test::outputDir("render_sequence_whole");
+  o.output_dir = whole_dir;
+  const SequenceResult whole = renderSequence(o);
+  o.output_dir = test::outputDir("render_sequence_from_0.2s");
+  o.start_s = 0.2;
+  const SequenceResult tail = renderSequence(o);
+  EXPECT_NE(tail.param_hash, whole.param_hash);
+  EXPECT_EQ(whole.frames, 6u);
+  ASSERT_EQ(tail.frames, 4u);
+  const Dataset a = Dataset::open(whole_dir);
+  const Dataset b = Dataset::open(o.output_dir);
+  ASSERT_EQ(b.size(), 4u);
+  for (size_t i = 0; i < b.size(); ++i) {
+    EXPECT_NEAR(b.timestamp(i), a.timestamp(i + 2), 1e-9);
+    EXPECT_EQ(cv::norm(b.loadImageUnchanged(i), a.loadImageUnchanged(i + 2), cv::NORM_INF), 0.0) << i;
+    EXPECT_LT(
+        (b.groundTruth()[i].T_world_cam.translation() - a.groundTruth()[i + 2].T_world_cam.translation())
+            .norm(),
+        1e-9);
+  }
+  ASSERT_EQ(b.imu().size(), 61u);  // 200 Hz over 0.3 s, both ends
+  EXPECT_NEAR(b.imu().front().timestamp_s, 0.2, 1e-9);
+  EXPECT_NEAR(b.imu().back().timestamp_s, 0.5, 1e-9);
+  ASSERT_EQ(b.altimeter().size(), 7u);
+  EXPECT_NEAR(b.altimeter().front().timestamp_s, 0.2, 1e-9);
+  EXPECT_NE(b.sequenceYaml().find("start_s: 0.2"), std::string::npos);
+  o.start_s = 0.5;  // nothing left
+  EXPECT_THROW(renderSequence(o), std::invalid_argument);
+}
+
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();

@@ -163,6 +163,7 @@ TEST(HazardMapper, NoSiteWhereThePointsShowReliefTheMapDoesNotResolve) {
   config.sites.target_x_m = -20.0;  // in the boulder field
   config.sites.max_distance_from_target_m = 12.0;
   config.sites.min_clearance_m = 1.0;  // the smoothed field still has rough spots 2 m apart
+  config.sites.confidence_k = 2.0;     // the smoothed field's slope + 2.5 sigma is just over the limit
   HazardMapper mapper(config);
   MapEvents events = pointsOnSurface();
   for (MapPointState& p : events.points_added) {

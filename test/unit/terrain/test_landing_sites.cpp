@@ -247,6 +247,7 @@ TEST(LandingSites, UncertaintyMarginRejectsAMarginalCell) {
   paintDisc(&g, -8.0, 15.0, 5.0, 2.0f, 0.27f);
   const HazardThresholds t;
   LandingSiteParams params;
+  params.confidence_k = 2.0;  // the figures below
   const auto sitesIn = [](const LandingSiteResult& r, double x, double y, double radius) {
     int n = 0;
     for (const LandingSite& s : r.sites) n += std::hypot(s.x_m - x, s.y_m - y) <= radius;

@@ -157,21 +157,26 @@ TEST(ShadowMap, DarkIsRelativeToTheImageAndOnlyTheLastKeyframesAreKept) {
   ShadowMapConfig config;
   config.max_keyframes = 2;
   ShadowMap shadows(camera, config);
-  cv::Mat image(48, 64, CV_8U, cv::Scalar(40));
-  image(cv::Rect(0, 0, 10, 10)).setTo(9);    // below 0.25 x 40
-  image(cv::Rect(10, 0, 10, 10)).setTo(10);  // not below
+  // Most of the image in shadow (4: the black level), a fifth dim lit ground (30), a fifth bright (100): the
+  // 90th percentile is lit ground even so, and the limit is 0.1 x 100.
+  cv::Mat image(48, 64, CV_8U, cv::Scalar(4));
+  image.rowRange(0, 10).setTo(100);
+  image.rowRange(10, 20).setTo(30);
+  image(cv::Rect(0, 20, 10, 10)).setTo(9);    // below 0.1 x 100
+  image(cv::Rect(10, 20, 10, 10)).setTo(10);  // not below
   const cv::Mat mask = shadows.darkMask(image);
-  EXPECT_EQ(cv::countNonZero(mask), 100);
-  EXPECT_EQ(mask.at<uint8_t>(5, 5), 255);
-  EXPECT_EQ(mask.at<uint8_t>(5, 15), 0);
+  EXPECT_EQ(cv::countNonZero(mask), 28 * 64 - 100);
+  EXPECT_EQ(mask.at<uint8_t>(25, 5), 255);
+  EXPECT_EQ(mask.at<uint8_t>(25, 15), 0);
+  EXPECT_EQ(cv::countNonZero(mask.rowRange(0, 20)), 0);
   // Twice as bright, the same shadows.
-  EXPECT_EQ(cv::countNonZero(shadows.darkMask(image * 2)), 100);
+  EXPECT_EQ(cv::countNonZero(shadows.darkMask(image * 2)), 28 * 64 - 100);
   // A black image has no shadow to tell.
   EXPECT_EQ(cv::countNonZero(shadows.darkMask(cv::Mat::zeros(48, 64, CV_8U))), 0);
   for (int i = 0; i < 3; ++i) shadows.addKeyframe(Pose::Identity(), image);
   EXPECT_EQ(shadows.numKeyframes(), 2u);
   EXPECT_THROW(shadows.addKeyframe(Pose::Identity(), cv::Mat(10, 10, CV_8U)), std::invalid_argument);
-  config.dark_fraction_of_median = 1.0;
+  config.dark_fraction_of_bright = 1.0;
   EXPECT_THROW(ShadowMap(camera, config), std::invalid_argument);
 }
 
