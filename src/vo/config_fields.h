@@ -180,6 +180,7 @@ void bundleAdjustmentFields(C& c, V& v) {
   v("max_iterations", c.max_iterations, 1, 10000);
   v("asynchronous", c.asynchronous);
   v("thread_nice", c.thread_nice, 0, 19);
+  v("collect_after_images", c.collect_after_images, 1, 1000);
 }
 
 template <class C, class V>

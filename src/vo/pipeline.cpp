@@ -123,6 +123,7 @@ void Pipeline::reset() {
     async_ba_->takeResult();  // belongs to the old map
     async_ba_->takeCovariance();
   }
+  images_since_ba_submit_ = -1;
   tracker_.reset();
   frozen_detector_.reset();
   exposure_compensator_.reset();
@@ -239,6 +240,7 @@ void Pipeline::reconfigure(const VoConfig& next) {
       map_.applyBaResult(finished->first, finished->second.outliers);
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
     async_ba_.reset();
+    images_since_ba_submit_ = -1;
   }
   config_ = next;
 }
@@ -276,6 +278,7 @@ void Pipeline::setPriorPlaneNormal(const Eigen::Vector3d& normal_cam) {
 
 FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   const Clock::time_point start = Clock::now();
+  frame_start_ = start;
   if (gray.empty() || gray.type() != CV_8UC1)
     throw std::invalid_argument("Pipeline::process: expected a non-empty 8-bit single-channel image");
   if (gray.cols != camera_.width() || gray.rows != camera_.height())
@@ -337,7 +340,10 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
     result.message = what.str();
   }
   trackFeatures(tracked, &result);
-  applyAsyncBundleAdjustment(&result);
+  if (images_since_ba_submit_ >= 0 &&
+      (++images_since_ba_submit_ >= config_.bundle_adjustment.collect_after_images ||
+       config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation))
+    applyAsyncBundleAdjustment(&result);
   if (config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation)
     processUnitStep(&result);
   else
@@ -525,6 +531,8 @@ void Pipeline::processMap(Clock::time_point start, FrameResult* result) {
   if (result->state == TrackingState::kTracking) {
     maybeInsertKeyframe(result);
   } else if (failed_frames_ >= config_.pipeline.max_consecutive_failed_frames) {
+    // An adjustment not taken yet belongs to this map, which the scale bridge still reads: taken now.
+    if (images_since_ba_submit_ >= 0) applyAsyncBundleAdjustment(result);
     startRecovery();
     result->message += "; re-initialising from the last good pose";
   }
@@ -724,6 +732,14 @@ void Pipeline::maybeInsertKeyframe(FrameResult* result) {
 }
 
 void Pipeline::insertKeyframe(FrameResult* result) {
+  // The adjustment of the last keyframe, when not taken yet (collect_after_images > 1): taken now, before
+  // this keyframe joins the map, and this frame's pose refined again against the adjusted points so that the
+  // new keyframe agrees with the adjusted ones. Its pose time then includes both.
+  if (images_since_ba_submit_ >= 0) {
+    applyAsyncBundleAdjustment(result);
+    refinePoseAgainstMap(result);
+    result->times.pose_ms = msSince(frame_start_);
+  }
   const Clock::time_point start = Clock::now();
   const KeyframeInsertion insertion =
       mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_, assoc_, camera_, &map_);
@@ -851,7 +867,8 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (!has_free_pose || problem.points.empty()) return;
   if (async_ba_) {
     async_ba_->submit(std::move(problem));
-    result->times.ba_ms = msSince(start);
+    images_since_ba_submit_ = 0;
+    result->times.ba_ms += msSince(start);
     return;
   }
   const BaSummary summary = adjustBundle(&problem, config_.bundle_adjustment);
@@ -863,10 +880,39 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
     result->message += "; BA " + std::to_string(summary.initial_rms_px).substr(0, 5) + " -> " +
                        std::to_string(summary.final_rms_px).substr(0, 5) + " px, -" + std::to_string(removed);
   }
-  result->times.ba_ms = msSince(start);
+  result->times.ba_ms += msSince(start);
+}
+
+void Pipeline::refinePoseAgainstMap(FrameResult* result) {
+  // The associations of trackAgainstMap() with the points as they are now; points the adjustment removed
+  // leave.
+  size_t kept = 0;
+  for (size_t i = 0; i < assoc_.size(); ++i) {
+    const MapPoint* p = map_.point(assoc_.point_ids[i]);
+    if (p == nullptr) continue;
+    assoc_.p_world[kept] = p->p_world;
+    assoc_.px[kept] = assoc_.px[i];
+    assoc_.track_ids[kept] = assoc_.track_ids[i];
+    assoc_.point_ids[kept] = assoc_.point_ids[i];
+    assoc_.inlier[kept] = assoc_.inlier[i];
+    ++kept;
+  }
+  assoc_.p_world.resize(kept);
+  assoc_.px.resize(kept);
+  assoc_.track_ids.resize(kept);
+  assoc_.point_ids.resize(kept);
+  assoc_.inlier.resize(kept);
+  const Pose before = result->T_world_cam;
+  const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_, &before);
+  if (!pnp.valid) return;  // the pose against the map before the adjustment stands
+  result->T_world_cam = pnp.T_world_cam;
+  result->num_inliers = pnp.num_inliers;
+  assoc_.inlier = pnp.inlier_mask;
+  snapshotCurrent(timestamp_s_, pnp.T_world_cam, &last_good_);
 }
 
 void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
+  images_since_ba_submit_ = -1;
   if (!async_ba_) return;
   const Clock::time_point start = Clock::now();
   // Waiting for the adjustment here, rather than taking it whenever it happens to be ready, makes every
@@ -886,7 +932,7 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
   }
   if (!finished || !finished->second.converged) return;
   map_.applyBaResult(finished->first, finished->second.outliers);
-  result->times.ba_ms = msSince(start);
+  result->times.ba_ms += msSince(start);
 }
 
 }  // namespace planetary_vo

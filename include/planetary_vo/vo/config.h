@@ -193,10 +193,18 @@ struct BundleAdjustmentConfig {
   /// results do not depend on timing); false = inline, within the keyframe's own processing.
   bool asynchronous = true;
   /// Linux nice value of the background optimiser thread (asynchronous), 0-19: on a core it shares with the
-  /// tracking, the tracking then runs first and the optimiser takes the time between frames (frames fed at the
-  /// camera's rate). Frames fed back to back (vo_run) then wait for the optimiser at keyframes. 0 = the
+  /// tracking, the tracking then runs first and the optimiser takes the time between frames (frames fed at
+  /// the camera's rate). Frames fed back to back (vo_run) then wait for the optimiser at keyframes. 0 = the
   /// tracking's priority.
   int thread_nice = 0;
+  /// Asynchronous only: the tracking takes the finished adjustment at the N-th image after the keyframe that
+  /// submitted it, after that image's KLT and before its pose (which waits for the optimiser if it is not
+  /// done), or at the next keyframe if that comes first (after its pose: the keyframe's pose is then refined
+  /// again against the adjusted map, and its pose time includes the wait). 1: the next image. A larger N
+  /// gives the optimiser the tracking of N images to finish in (on a shared core, it slows them instead of
+  /// making one of them wait); the images in between are posed against the map as it was. The result lands
+  /// at a fixed frame either way: results do not depend on timing.
+  int collect_after_images = 1;
 };
 
 enum class TrajectoryMode {

@@ -183,6 +183,8 @@ class Pipeline {
   void insertKeyframe(FrameResult* result);
   void runBundleAdjustment(FrameResult* result);
   void applyAsyncBundleAdjustment(FrameResult* result);
+  /// The current frame's pose refined again against the map points as they are now (after an adjustment).
+  void refinePoseAgainstMap(FrameResult* result);
   /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
   void holdPose(FrameResult* result, const std::string& why);
   /// The motion prior (motion_prior.h): the last good pose moved on to the current time.
@@ -235,6 +237,8 @@ class Pipeline {
   AltimeterAiding altimeter_;
   InertialAiding inertial_;
   std::unique_ptr<AsyncBundleAdjuster> async_ba_;
+  int images_since_ba_submit_ = -1;  ///< -1: no adjustment waiting to be taken
+  std::chrono::steady_clock::time_point frame_start_;
   FrozenFrameDetector frozen_detector_;
   ExposureCompensator exposure_compensator_;
   cv::Mat compensated_;  ///< the scaled image while the exposure compensation is active
@@ -260,7 +264,8 @@ class Pipeline {
   std::optional<NavState> last_nav_state_;         // inertial state of the last processed frame
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
-  double first_map_depth_ = 0.0;  // median scene depth of the first map, world units (the scale bridge's anchor)
+  double first_map_depth_ =
+      0.0;  // median scene depth of the first map, world units (the scale bridge's anchor)
   int frames_since_keyframe_ = 0;
   FrameSnapshot reference_;  // initialisation / unit-step reference frame
   FrameSnapshot last_good_;  // last frame with a pose estimate (map mode), the anchor of a recovery

@@ -127,6 +127,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
   EXPECT_FALSE(c.bundle_adjustment.asynchronous);
   EXPECT_EQ(c.bundle_adjustment.thread_nice, 3);
+  EXPECT_EQ(c.bundle_adjustment.collect_after_images, 4);
 
   EXPECT_EQ(c.pipeline.trajectory_mode, TrajectoryMode::kUnitStepConcatenation);
   EXPECT_EQ(c.pipeline.max_consecutive_failed_frames, 5);
