@@ -212,6 +212,21 @@ def summarise(results, a, k):
     lines.append("| distinct sites chosen: truly safe / UNSAFE | %d / %d |" % (
         sum(1 for v in distinct.values() if v), sum(1 for v in distinct.values() if not v)))
     lines.append("")
+    lines.append("By Sun elevation (low Sun: long shadows, which the map marks unknown; high Sun: rocks cast "
+                 "almost none):")
+    lines.append("")
+    lines.append("| Sun elevation | runs | site for (0, 0): safe / UNSAFE / none | all trials: chosen / UNSAFE |")
+    lines.append("|---|---|---|---|")
+    for lo, hi in ((0, 15), (15, 25), (25, 35), (35, 90)):
+        rs = [r for r in results if r["status"] == "ok" and lo <= r["params"]["sun_elevation_deg"] < hi]
+        pl = [planned_site(r["trials"]) for r in rs]
+        pc = [t for t in pl if t is not None and t["site"] is not None]
+        pu = [t for t in pc if not t["site"]["truly_safe"]]
+        tc = [t for r in rs for t in r["trials"] if t["site"] is not None]
+        tu = [t for t in tc if not t["site"]["truly_safe"]]
+        lines.append("| %d-%d deg | %d | %d / %d / %d | %d / %d |" % (lo, hi, len(rs), len(pc) - len(pu), len(pu),
+                                                                   len(pl) - len(pc), len(tc), len(tu)))
+    lines.append("")
     lines.append("Maps (one per run, the terrain model at the end of the approach):")
     lines.append("")
     for res, title in (("at_map_resolution", "at the map's resolution"), ("full_resolution", "as sampled")):
@@ -251,6 +266,8 @@ def main():
     src = ap.add_mutually_exclusive_group(required=True)
     src.add_argument("--datasets", nargs="+")
     src.add_argument("--runs", type=int)
+    src.add_argument("--gather", action="store_true",
+                     help="write the summary of the runs already in --out again (a campaign interrupted or re-read)")
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "hazard_campaign"))
     ap.add_argument("--config", default=os.path.join(ROOT, "config", "lunar_fused.yaml"))
     ap.add_argument("--hazard-config", default="", help="vo_run --hazard-config (default: config/hazard.yaml's values)")
@@ -307,9 +324,45 @@ def main():
                 json.dump({"confidence_k": k, "trials": trials}, f, indent=1)
         return 1 if unsafe else 0
 
-    runs = plan_runs(a)
-    with open(os.path.join(a.out, "plan.json"), "w") as f:
-        json.dump({"argv": sys.argv[1:], "runs": runs}, f, indent=1)
+    if a.gather:
+        plan = json.load(open(os.path.join(a.out, "plan.json")))
+        results = []
+        for p in plan["runs"]:
+            path = os.path.join(a.out, "runs", p["id"], "result.json")
+            if os.path.exists(path):
+                results.append(json.load(open(path)))
+        k = next((r.get("confidence_k") for r in results if r.get("confidence_k") is not None), None)
+        # The conditions are those of the campaign's own command line.
+        campaign = ap.parse_args(plan["argv"])
+        for key in ("seed", "sequences", "size", "sensors", "start_s", "init_position_sigma_m",
+                    "init_attitude_sigma_deg", "sun_elevation", "sun_azimuth", "placement_ranks", "config",
+                    "hazard_config"):
+            setattr(a, key, getattr(campaign, key))
+        sys.argv = [sys.argv[0]] + plan["argv"]
+    else:
+        runs = plan_runs(a)
+        with open(os.path.join(a.out, "plan.json"), "w") as f:
+            json.dump({"argv": sys.argv[1:], "runs": runs}, f, indent=1)
+        results = run_all(runs, a)
+        k = next((r.get("confidence_k") for r in results if r.get("confidence_k") is not None), None)
+    text, summary = summarise(results, a, k)
+    with open(os.path.join(a.out, "summary.md"), "w") as f:
+        f.write(text)
+    with open(os.path.join(a.out, "summary.json"), "w") as f:
+        json.dump({"summary": summary, "runs": results}, f, indent=1)
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump({"confidence_k": k, "trials": [t for r in results for t in r["trials"]]}, f, indent=1)
+    if a.write_docs:
+        os.makedirs(a.write_docs, exist_ok=True)
+        shutil.copy(os.path.join(a.out, "summary.md"), a.write_docs)
+        shutil.copy(os.path.join(a.out, "summary.json"), a.write_docs)
+    print()
+    print(text)
+    return 1 if summary["unsafe"] or summary["failed"] else 0
+
+
+def run_all(runs, a):
     t0 = time.time()
     results = [None] * len(runs)
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
@@ -328,23 +381,7 @@ def main():
             say("[%d/%d] %s %s sun %.1f deg: %s; %d unsafe of %d trials (%.0f s, elapsed %.0f min)" % (
                 done, len(runs), r["params"]["id"], r["params"]["sequence"], r["params"]["sun_elevation_deg"],
                 verdict, n_unsafe, len(r["trials"]), r["seconds"], (time.time() - t0) / 60.0))
-            if r.get("confidence_k") is not None:
-                k = r["confidence_k"]
-    text, summary = summarise(results, a, k)
-    with open(os.path.join(a.out, "summary.md"), "w") as f:
-        f.write(text)
-    with open(os.path.join(a.out, "summary.json"), "w") as f:
-        json.dump({"summary": summary, "runs": results}, f, indent=1)
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump({"confidence_k": k, "trials": [t for r in results for t in r["trials"]]}, f, indent=1)
-    if a.write_docs:
-        os.makedirs(a.write_docs, exist_ok=True)
-        shutil.copy(os.path.join(a.out, "summary.md"), a.write_docs)
-        shutil.copy(os.path.join(a.out, "summary.json"), a.write_docs)
-    print()
-    print(text)
-    return 1 if summary["unsafe"] or summary["failed"] else 0
+    return results
 
 
 if __name__ == "__main__":
