@@ -108,8 +108,8 @@ class HazardMapper {
   /// Everything back to the state after construction (the camera is kept).
   void reset();
 
-  /// The products now (cost: the terrain model's rasterisation plus the site search; 122 ms over the default
-  /// 513 x 513 cells with 5473 points in the area, the end of approach_30deg 1024 flight, vo_run prints it).
+  /// The products now (cost: the terrain model's rasterisation, the shadows of the known cells and the site
+  /// search; vo_run prints it: docs/agnc.md gives a measurement).
   HazardProducts products() const;
 
   const HazardMapperConfig& config() const { return config_; }
