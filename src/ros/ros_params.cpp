@@ -110,7 +110,7 @@ std::string voConfigYamlFromParams(const ros::NodeHandle& private_nh) {
 }
 
 const std::vector<std::string>& hazardConfigSections() {
-  static const std::vector<std::string> sections = {"area", "map", "densifier", "shadows", "thresholds", "sites"};
+  static const std::vector<std::string> sections = terrain::hazardMapperConfigSections();
   return sections;
 }
 

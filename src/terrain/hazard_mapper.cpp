@@ -226,6 +226,13 @@ std::string dumpHazardMapperConfig(const HazardMapperConfig& config) {
   return os.str();
 }
 
+std::vector<std::string> hazardMapperConfigSections() {
+  HazardMapperConfig config;
+  std::vector<std::string> names;
+  for (const auto& section : sectionsOf(&config)) names.emplace_back(section.first);
+  return names;
+}
+
 HazardMapperConfig loadHazardMapperConfig(const std::string& yaml_path) {
   std::error_code ec;
   if (std::filesystem::is_directory(yaml_path, ec))
@@ -299,8 +306,9 @@ HazardProducts HazardMapper::products() const {
   HazardProducts out;
   out.terrain = map_.products();
   if (shadows_ && config_.shadows.enabled && out.terrain.metric) {
-    out.terrain.grids.layers["shadow_fraction"] = shadows_->shadowFraction(
-        out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"), &out.shadows);
+    out.terrain.grids.layers["shadow_fraction"] =
+        shadows_->shadowFraction(out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"),
+                                 &out.shadows, nullptr, config_.thresholds.max_shadow_fraction);
     out.terrain.grids.parameters["max_shadow_fraction"] = config_.thresholds.max_shadow_fraction;
   }
   const GridSet& g = out.terrain.grids;

@@ -65,7 +65,7 @@ void ShadowMap::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray) {
 }
 
 cv::Mat ShadowMap::shadowFraction(const GridGeometry& geometry, const cv::Mat& elevation_m,
-                                  ShadowStats* stats, cv::Mat* views_out) const {
+                                  ShadowStats* stats, cv::Mat* views_out, double shadowed_above) const {
   if (elevation_m.type() != CV_32FC1 || elevation_m.rows != geometry.rows ||
       elevation_m.cols != geometry.cols)
     throw std::invalid_argument("ShadowMap::shadowFraction: the elevation is not a CV_32F layer of the grid");
@@ -101,7 +101,7 @@ cv::Mat ShadowMap::shadowFraction(const GridGeometry& geometry, const cv::Mat& e
       if (n == 0) continue;
       f[col] = static_cast<float>(double(dark) / n);
       ++s.cells_seen;
-      if (2 * dark > n) ++s.cells_shadowed;
+      if (f[col] > shadowed_above) ++s.cells_shadowed;
     }
   }
   if (stats) *stats = s;

@@ -65,6 +65,8 @@ HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text);
 HazardMapperConfig loadHazardMapperConfig(const std::string& yaml_path);
 /// Every key with its value, as YAML that parseHazardMapperConfig reads back to the same config.
 std::string dumpHazardMapperConfig(const HazardMapperConfig& config);
+/// The YAML sections parseHazardMapperConfig knows, in order (area, map, densifier, ...).
+std::vector<std::string> hazardMapperConfigSections();
 
 /// What one apply() did.
 struct HazardMapperUpdate {

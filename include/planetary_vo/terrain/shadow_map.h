@@ -11,12 +11,12 @@
 /// against 20 % of all cells (docs/terrain/README.md).
 ///
 /// A keyframe's image gives a dark mask: the pixels darker than dark_fraction_of_bright times the
-/// image's 90th percentile (lit ground, even when most of the image is in shadow at a very low Sun). The masks of the last max_keyframes keyframes are kept (1 bit per pixel) with their
-/// poses. shadowFraction() projects every cell of a known elevation into each of them and counts the views
-/// that see the cell with a pixel covering at most max_pixel_footprint_m of ground (range / focal length,
-/// stretched by the incidence on a level cell), and how many of those saw it dark. The cells are projected
-/// at the time of the query, with the elevation known then, so a cell mapped after the keyframe was taken
-/// is still seen by it.
+/// image's 90th percentile (lit ground, even when most of the image is in shadow at a very low Sun). The
+/// masks of the last max_keyframes keyframes are kept (1 bit per pixel) with their poses. shadowFraction()
+/// projects every cell of a known elevation into each of them and counts the views that see the cell with a
+/// pixel covering at most max_pixel_footprint_m of ground (range / focal length, stretched by the incidence
+/// on a level cell), and how many of those saw it dark. The cells are projected at the time of the query,
+/// with the elevation known then, so a cell mapped after the keyframe was taken is still seen by it.
 ///
 /// Frames: the world of the poses (gravity-aligned, z up, metres: as the densifier, used only once the
 /// navigation is metric). The images are the 8-bit keyframes as the VO was given them (distorted).
@@ -49,7 +49,7 @@ struct ShadowMapConfig {
 
 struct ShadowStats {
   int cells_seen = 0;      ///< cells with at least one view at the resolution
-  int cells_shadowed = 0;  ///< ... of which dark in more than half of them
+  int cells_shadowed = 0;  ///< ... of which dark in more than `shadowed_above` of them
 };
 
 class ShadowMap {
@@ -66,9 +66,11 @@ class ShadowMap {
 
   /// Per cell of `elevation_m` (CV_32F on `geometry`, NaN = unknown): the fraction of the views at the
   /// resolution that saw the cell dark, NaN where the elevation is unknown or no view qualifies.
-  /// `views_out` (optional): the number of those views per cell (CV_32F).
+  /// `views_out` (optional): the number of those views per cell (CV_32F). `shadowed_above`: the fraction
+  /// above which stats counts a cell as in shadow (the hazard map's thresholds.max_shadow_fraction).
   cv::Mat shadowFraction(const GridGeometry& geometry, const cv::Mat& elevation_m,
-                         ShadowStats* stats = nullptr, cv::Mat* views_out = nullptr) const;
+                         ShadowStats* stats = nullptr, cv::Mat* views_out = nullptr,
+                         double shadowed_above = 0.5) const;
 
   /// The dark mask of one image by the config's rule (CV_8U, 255 = dark): what addKeyframe keeps.
   cv::Mat darkMask(const cv::Mat& gray) const;

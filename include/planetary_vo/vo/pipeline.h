@@ -264,8 +264,8 @@ class Pipeline {
   std::optional<NavState> last_nav_state_;         // inertial state of the last processed frame
   int failed_frames_ = 0;
   double scale_confidence_ = 0.0;
-  double first_map_depth_ =
-      0.0;  // median scene depth of the first map, world units (the scale bridge's anchor)
+  // Median scene depth of the first map, world units (the scale bridge's anchor).
+  double first_map_depth_ = 0.0;
   int frames_since_keyframe_ = 0;
   FrameSnapshot reference_;  // initialisation / unit-step reference frame
   FrameSnapshot last_good_;  // last frame with a pose estimate (map mode), the anchor of a recovery

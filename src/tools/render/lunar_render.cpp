@@ -1,8 +1,7 @@
 /// lunar_render: renders the synthetic Lunar descent sequences (docs/rendering.md) with the sensors' error
 /// models (docs/sensors/).
-///   lunar_render --sequence NAME --output DIR [--width W --height H --rate HZ --duration S --start S --seed
-///   N
-///                --dem FILE.yaml --placement-rank K --sun-elevation DEG --sun-azimuth DEG
+///   lunar_render --sequence NAME --output DIR [--width W --height H --rate HZ --duration S --start S
+///                --seed N --dem FILE.yaml --placement-rank K --sun-elevation DEG --sun-azimuth DEG
 ///                --sensors flight|ideal --sensor-seed N --imu-grade G --sensor-config FILE.yaml
 ///                --set SECTION.KEY=VALUE ... --noise SIGMA --depth --force --progress --verbose --threads N]
 ///   lunar_render --sequence NAME --snapshot T --output FILE.png [same options]   one frame at time T
@@ -32,9 +31,8 @@ int usage(const char* msg) {
   if (msg) std::cerr << "lunar_render: " << msg << "\n";
   std::cerr
       << "usage: lunar_render --sequence NAME --output DIR [--width W] [--height H] [--rate HZ] "
-         "[--duration S] [--start S] [--seed N] [--dem FILE.yaml|NAME] [--placement-rank K] [--sun-elevation "
-         "DEG] "
-         "[--sun-azimuth DEG] [--sensors flight|ideal] [--sensor-seed N] [--imu-grade "
+         "[--duration S] [--start S] [--seed N] [--dem FILE.yaml|NAME] [--placement-rank K] "
+         "[--sun-elevation DEG] [--sun-azimuth DEG] [--sensors flight|ideal] [--sensor-seed N] [--imu-grade "
          "navigation|tactical|mems|ideal] [--sensor-config FILE.yaml] [--set SECTION.KEY=VALUE]... "
          "[--noise SIGMA_DN] [--depth] [--force] [--progress] [--verbose] [--threads N] [--snapshot T]\n"
          "       lunar_render --print-sensors [--sensors P] [--imu-grade G] [--sensor-config F] [--set ...]\n"

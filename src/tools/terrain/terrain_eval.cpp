@@ -1,15 +1,15 @@
 /// terrain_eval: scores an estimated terrain map of the landing area (vo_run --output-terrain) against the
 /// true one the renderer wrote into the dataset (groundtruth_terrain, render/terrain_truth.h).
 ///
-///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10] [--max-roughness-m
-///   0.3] [--max-shadow-fraction 0.5]
-///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2] [--json FILE]
+///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10]
+///                [--max-roughness-m 0.3] [--max-shadow-fraction 0.5]
+///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2.5] [--json FILE]
 ///                [--write-truth-at-resolution DIR]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
-/// (terrain/terrain_score.h; the estimate's hazards include its cells seen in shadow when it has the layer
-/// shadow_fraction, --max-shadow-fraction 1 leaves them out) against the truth as sampled, and, when the
-/// estimate says its plane-fit support (parameter support_radius_m), against the truth seen at that
+/// (terrain/terrain_score.h; an estimate with the layer shadow_fraction has its cells seen in shadow unknown,
+/// as it publishes them; --max-shadow-fraction 1 ignores the layer) against the truth as sampled, and, when
+/// the estimate says its plane-fit support (parameter support_radius_m), against the truth seen at that
 /// resolution (terrain/resolution.h); then the landing site the run chose (DIR/landing_sites.yaml, written by
 /// vo_run --output-terrain and by hazard_recorder from the hazard nodelet) or, when the file is absent or a
 /// site option is given, the one the estimated map gives here (terrain/landing_sites.h; defaults but for the
@@ -37,9 +37,9 @@ namespace {
 int usage(const char* why) {
   std::fprintf(stderr,
                "terrain_eval: %s\nusage: terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] "
-               "[--max-slope-deg D] [--max-roughness-m M] [--max-shadow-fraction F] [--target-x-m X "
-               "--target-y-m Y] [--max-divert-m R] "
-               "[--confidence-k K] [--json FILE] [--write-truth-at-resolution DIR]\n",
+               "[--max-slope-deg D] [--max-roughness-m M] [--max-shadow-fraction F] "
+               "[--target-x-m X --target-y-m Y] [--max-divert-m R] [--confidence-k K] [--json FILE] "
+               "[--write-truth-at-resolution DIR]\n",
                why);
   return 2;
 }

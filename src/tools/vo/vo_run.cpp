@@ -133,10 +133,9 @@ void usage(std::ostream& out) {
          "  --cpu-budget-step K  run with step K of that path from the first frame (0 = the configuration;\n"
          "                    the steps are printed), without a budget: each step's cost and accuracy\n"
          "  --realtime        give each frame to the pipeline at its own time (the dataset's rate, from the\n"
-         "                    first frame on; loaded from disk before), as a camera would, instead of back "
-         "to\n"
-         "                    back: the bundle adjustment thread then has the time between frames, as in\n"
-         "                    flight. The trajectory does not change; the stage times do\n";
+         "                    first frame on; loaded from disk before), as a camera would, instead of\n"
+         "                    back to back: the bundle adjustment thread then has the time between frames,\n"
+         "                    as in flight. The trajectory does not change; the stage times do\n";
 }
 
 bool parseArgs(int argc, char** argv, Options* options) {

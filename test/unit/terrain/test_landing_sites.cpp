@@ -55,6 +55,15 @@ void paintDisc(GridSet* g, double cx, double cy, double radius_m, float slope_de
       }
 }
 
+/// Two identical safe discs (radius 5 m, 2 deg, 0.05 m) centred at (-10, 0) and (20, 0) in hazards; x from
+/// -30 m, y from -15 m.
+GridSet twoEqualDiscs() {
+  GridSet g = hazardField(121, 61, -30.0, -15.0);
+  paintDisc(&g, -10.0, 0.0, 5.0, 2.0f, 0.05f);
+  paintDisc(&g, 20.0, 0.0, 5.0, 2.0f, 0.05f);
+  return g;
+}
+
 /// Distance (m) from a cell centre to the nearest cell centre that is not safe under `thresholds` (slope and
 /// roughness raised by the given per-cell amounts), the cells just outside the grid included.
 double bruteForceClearance(const GridGeometry& geo, const cv::Mat& slope_up, const cv::Mat& rough_up,
@@ -112,10 +121,7 @@ TEST(LandingSites, CentreOfASafeDiscInHazardsIsTheBestSite) {
 }
 
 TEST(LandingSites, OfTwoEqualSitesTheNearerToTheTargetComesFirst) {
-  // Two identical discs (radius 5 m) centred at (-10, 0) and (20, 0).
-  GridSet g = hazardField(121, 61, -30.0, -15.0);
-  paintDisc(&g, -10.0, 0.0, 5.0, 2.0f, 0.05f);
-  paintDisc(&g, 20.0, 0.0, 5.0, 2.0f, 0.05f);
+  GridSet g = twoEqualDiscs();
   LandingSiteParams params;
   params.max_distance_from_target_m = 50.0;
   LandingSiteResult r = findLandingSites(g, HazardThresholds(), params);
@@ -142,9 +148,7 @@ TEST(LandingSites, CellsSeenInShadowAreNotSafe) {
   // slope and roughness say nothing of it (a rock smaller than the map's support). The nearer disc then has
   // no cell with 3 m clearance, so the farther one is chosen; without the layer, or with shadows never a
   // hazard, the nearer one.
-  GridSet g = hazardField(121, 61, -30.0, -15.0);
-  paintDisc(&g, -10.0, 0.0, 5.0, 2.0f, 0.05f);
-  paintDisc(&g, 20.0, 0.0, 5.0, 2.0f, 0.05f);
+  GridSet g = twoEqualDiscs();
   LandingSiteParams params;
   params.max_distance_from_target_m = 50.0;
   LandingSiteResult r = findLandingSites(g, HazardThresholds(), params);
