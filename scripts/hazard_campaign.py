@@ -28,6 +28,7 @@ table and a summary; --json writes every trial; with --runs, OUT/summary.md and 
   scripts/hazard_campaign.py --runs 50 [--seed 1] [--sequences approach_down,approach_30deg,approach_nozzle]
                              [--size 1024] [--start-s 40] [--sensors flight] [--jobs 2] [--keep-images] [common]
   common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
+          [--max-shading-slope-deg S]
           [--reuse] [--json FILE] [--write-docs DIR]
 """
 import argparse
@@ -95,6 +96,8 @@ def evaluate(dataset, work, name, a, targets, vo_extra=()):
             cmd += ["--confidence-k", str(a.confidence_k)]
         if a.max_shadow_fraction is not None:
             cmd += ["--max-shadow-fraction", str(a.max_shadow_fraction)]
+        if a.max_shading_slope_deg is not None:
+            cmd += ["--max-shading-slope-deg", str(a.max_shading_slope_deg)]
         log = os.path.join(work, tag + ".txt")
         run(cmd, log)
         m = re.search(r"confidence k = ([0-9.]+)", open(log).read())
@@ -273,6 +276,8 @@ def main():
     ap.add_argument("--hazard-config", default="", help="vo_run --hazard-config (default: config/hazard.yaml's values)")
     ap.add_argument("--confidence-k", type=float, default=None,
                     help="terrain_eval --confidence-k (default: config/hazard.yaml's sites.confidence_k)")
+    ap.add_argument("--max-shading-slope-deg", type=float, default=None,
+                    help="terrain_eval --max-shading-slope-deg (a large value: the shading relief is ignored)")
     ap.add_argument("--max-shadow-fraction", type=float, default=None,
                     help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not unknown)")
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')

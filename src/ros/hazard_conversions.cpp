@@ -15,10 +15,10 @@
 namespace planetary_vo::ros_io {
 namespace {
 
-constexpr int kNumRasterLayers = 8;
-const char* const kRasterLayers[kNumRasterLayers] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
-                                                     "slope_sigma_deg", "residual_rms_m",    "slope_deg",
-                                                     "roughness_m",     "shadow_fraction"};
+constexpr int kNumRasterLayers = 9;
+const char* const kRasterLayers[kNumRasterLayers] = {
+    "elevation_m", "elevation_sigma_m", "relief_sigma_m",  "slope_sigma_deg",  "residual_rms_m",
+    "slope_deg",   "roughness_m",       "shadow_fraction", "shading_slope_deg"};
 
 sensor_msgs::Image floatImage(const cv::Mat& layer, const std_msgs::Header& header) {
   sensor_msgs::Image img;
@@ -90,11 +90,14 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.max_slope_deg = config.thresholds.max_slope_deg;
   msg.max_roughness_m = config.thresholds.max_roughness_m;
   msg.max_shadow_fraction = config.thresholds.max_shadow_fraction;
+  msg.max_shading_slope_deg = config.thresholds.max_shading_slope_deg;
+  msg.sun_elevation_deg = config.shading.sun_elevation_deg;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
   sensor_msgs::Image* out[kNumRasterLayers] = {
-      &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
-      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m,    &msg.shadow_fraction};
+      &msg.elevation_m,     &msg.elevation_sigma_m, &msg.relief_sigma_m,
+      &msg.slope_sigma_deg, &msg.residual_rms_m,    &msg.slope_deg,
+      &msg.roughness_m,     &msg.shadow_fraction,   &msg.shading_slope_deg};
   for (int i = 0; i < kNumRasterLayers; ++i) {
     auto it = grids.layers.find(kRasterLayers[i]);
     if (it != grids.layers.end()) *out[i] = floatImage(it->second, header);
@@ -106,8 +109,9 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
   terrain::GridSet grids;
   grids.geometry = fromMapMetaData(msg.info);
   const sensor_msgs::Image* in[kNumRasterLayers] = {
-      &msg.elevation_m,    &msg.elevation_sigma_m, &msg.relief_sigma_m, &msg.slope_sigma_deg,
-      &msg.residual_rms_m, &msg.slope_deg,         &msg.roughness_m,    &msg.shadow_fraction};
+      &msg.elevation_m,     &msg.elevation_sigma_m, &msg.relief_sigma_m,
+      &msg.slope_sigma_deg, &msg.residual_rms_m,    &msg.slope_deg,
+      &msg.roughness_m,     &msg.shadow_fraction,   &msg.shading_slope_deg};
   for (int i = 0; i < kNumRasterLayers; ++i)
     if (!in[i]->data.empty())
       grids.layers[kRasterLayers[i]] = fromFloatImage(*in[i], grids.geometry, kRasterLayers[i]);
@@ -115,7 +119,9 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
                       {"support_radius_m", msg.support_radius_m},
                       {"max_slope_deg", msg.max_slope_deg},
                       {"max_roughness_m", msg.max_roughness_m},
-                      {"max_shadow_fraction", msg.max_shadow_fraction}};
+                      {"max_shadow_fraction", msg.max_shadow_fraction},
+                      {"max_shading_slope_deg", msg.max_shading_slope_deg},
+                      {"sun_elevation_deg", msg.sun_elevation_deg}};
   grids.description = msg.metric ? "hazard map (metric)" : "hazard map (NOT metric: the map's unit)";
   return grids;
 }

@@ -39,4 +39,20 @@ cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const c
   return mask;
 }
 
+cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
+                   const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds) {
+  cv::Mat mask = hazardMask(slope_deg, roughness_m, shadow_fraction, thresholds);
+  if (shading_slope_deg.empty()) return mask;
+  if (shading_slope_deg.type() != CV_32FC1 || shading_slope_deg.size() != mask.size())
+    throw std::invalid_argument("hazardMask: the shading slope must be a CV_32F layer of the slope's size");
+  for (int row = 0; row < mask.rows; ++row) {
+    const float* s = shading_slope_deg.ptr<float>(row);
+    uint8_t* m = mask.ptr<uint8_t>(row);
+    for (int col = 0; col < mask.cols; ++col)
+      if (m[col] == kSafe && std::isfinite(s[col]) && s[col] > thresholds.max_shading_slope_deg)
+        m[col] = kHazard;
+  }
+  return mask;
+}
+
 }  // namespace planetary_vo::terrain

@@ -60,10 +60,18 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"dark_fraction_of_bright", &c->shadows.dark_fraction_of_bright},
         {"max_pixel_footprint_m", &c->shadows.max_pixel_footprint_m},
         {"max_keyframes", &c->shadows.max_keyframes}}},
+      {"shading",
+       {{"enabled", &c->shading.enabled},
+        {"sun_elevation_deg", &c->shading.sun_elevation_deg},
+        {"band_min_m", &c->shading.band_min_m},
+        {"band_max_m", &c->shading.band_max_m},
+        {"max_pixel_footprint_m", &c->shading.max_pixel_footprint_m},
+        {"max_keyframes", &c->shading.max_keyframes}}},
       {"thresholds",
        {{"max_slope_deg", &c->thresholds.max_slope_deg},
         {"max_roughness_m", &c->thresholds.max_roughness_m},
-        {"max_shadow_fraction", &c->thresholds.max_shadow_fraction}}},
+        {"max_shadow_fraction", &c->thresholds.max_shadow_fraction},
+        {"max_shading_slope_deg", &c->thresholds.max_shading_slope_deg}}},
       {"sites",
        {{"target_x_m", &c->sites.target_x_m},
         {"target_y_m", &c->sites.target_y_m},
@@ -138,6 +146,11 @@ std::vector<std::string> validationErrors(const HazardMapperConfig& c) {
     problems.push_back(std::string("shadows: ") + e.what());
   }
   try {
+    ShadingRelief check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.shading);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("shading: ") + e.what());
+  }
+  try {
     GridSet tiny;
     tiny.geometry = GridGeometry::centeredOnOrigin(1.0, 1.0);
     tiny.layers["slope_deg"] = tiny.geometry.newLayer(0.0f);
@@ -176,7 +189,9 @@ HazardMapperConfig parseHazardMapperConfig(const std::string& yaml_text) {
       auto s = std::find_if(sections.begin(), sections.end(),
                             [&](const auto& known) { return section == known.first; });
       if (s == sections.end()) {
-        problems.push_back(section + ": unknown section (known: area, map, densifier, thresholds, sites)");
+        std::string known;
+        for (const auto& k : sections) known += std::string(known.empty() ? "" : ", ") + k.first;
+        problems.push_back(section + ": unknown section (known: " + known + ")");
         continue;
       }
       if (!entry.second.IsMap()) {
@@ -258,9 +273,11 @@ HazardMapper::HazardMapper(const HazardMapperConfig& config) : config_(withArea(
 void HazardMapper::setCamera(const PinholeCamera& camera) {
   auto densifier = std::make_unique<Densifier>(camera, config_.densifier);  // validates the camera
   auto shadows = std::make_unique<ShadowMap>(camera, config_.shadows);
+  auto shading = std::make_unique<ShadingRelief>(camera, config_.shading);
   camera_ = std::make_unique<PinholeCamera>(camera);
   densifier_ = std::move(densifier);
   shadows_ = std::move(shadows);
+  shading_ = std::move(shading);
 }
 
 HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scale,
@@ -270,6 +287,7 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
   if ((events.map_restarted || metric_scale != metric_) && camera_) {
     densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
     shadows_->clear();
+    shading_->clear();
   }
   metric_ = metric_scale;
   map_.apply(events, metric_scale);
@@ -285,8 +303,11 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
     shadows_->addKeyframe(kf.T_world_cam, keyframe_gray);
     update.shadow_view_added = true;
   }
-  if (!config_.densify) return update;
   const double ground_z = map_.medianGroundHeight();
+  if (shading_->active())
+    update.shading_view_added =
+        shading_->addKeyframe(kf.T_world_cam, keyframe_gray, std::isfinite(ground_z) ? ground_z : 0.0);
+  if (!config_.densify) return update;
   MapEvents dense;
   dense.points_added = densifier_->addKeyframe(kf.timestamp_s, kf.T_world_cam, keyframe_gray,
                                                std::isfinite(ground_z) ? ground_z : 0.0, &update.densifier);
@@ -300,6 +321,7 @@ void HazardMapper::reset() {
   metric_ = false;
   if (camera_) densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
   if (shadows_) shadows_->clear();
+  if (shading_) shading_->clear();
 }
 
 HazardProducts HazardMapper::products() const {
@@ -311,10 +333,19 @@ HazardProducts HazardMapper::products() const {
                                  &out.shadows, nullptr, config_.thresholds.max_shadow_fraction);
     out.terrain.grids.parameters["max_shadow_fraction"] = config_.thresholds.max_shadow_fraction;
   }
+  if (shading_ && shading_->active() && out.terrain.metric) {
+    out.terrain.grids.layers["shading_slope_deg"] = shading_->slopeRms(
+        out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"),
+        config_.area.footprint_diameter_m, &out.shading, config_.thresholds.max_shading_slope_deg);
+    out.terrain.grids.parameters["max_shading_slope_deg"] = config_.thresholds.max_shading_slope_deg;
+    out.terrain.grids.parameters["sun_elevation_deg"] = config_.shading.sun_elevation_deg;
+  }
   const GridSet& g = out.terrain.grids;
   const auto shadow = g.layers.find("shadow_fraction");
+  const auto shading = g.layers.find("shading_slope_deg");
   out.hazard = hazardMask(g.layers.at("slope_deg"), g.layers.at("roughness_m"),
-                          shadow == g.layers.end() ? cv::Mat() : shadow->second, config_.thresholds);
+                          shadow == g.layers.end() ? cv::Mat() : shadow->second,
+                          shading == g.layers.end() ? cv::Mat() : shading->second, config_.thresholds);
   cv::Mat hazard_f(out.hazard.size(), CV_32F);
   for (int r = 0; r < out.hazard.rows; ++r)
     for (int c = 0; c < out.hazard.cols; ++c) {

@@ -39,6 +39,8 @@ void checkParams(const GridSet& grids, const HazardThresholds& t, const LandingS
     throw std::invalid_argument("landing sites: the hazard thresholds must be positive");
   if (!(t.max_shadow_fraction >= 0.0 && t.max_shadow_fraction <= 1.0))
     throw std::invalid_argument("landing sites: max_shadow_fraction must be in [0, 1]");
+  if (!(t.max_shading_slope_deg > 0.0))
+    throw std::invalid_argument("landing sites: max_shading_slope_deg must be positive");
   if (p.max_sites < 1) throw std::invalid_argument("landing sites: max_sites must be >= 1");
   if (!(p.confidence_k >= 0.0) || !(p.min_separation_m >= 0.0) || !(p.distance_weight >= 0.0))
     throw std::invalid_argument("landing sites: k, separation and distance weight must be >= 0");
@@ -146,9 +148,12 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
       for (int col = 0; col < g.cols; ++col)
         r[col] = std::isfinite(u[col]) ? std::max(r[col], u[col]) : std::numeric_limits<float>::quiet_NaN();
     }
-  // Cells seen in shadow (terrain/shadow_map.h): their relief is unseen.
+  // Cells seen in shadow (terrain/shadow_map.h): their relief is unseen. Cells whose shading shows relief
+  // below the plane fit (terrain/shading_relief.h): hazards.
   const cv::Mat* shadow = findLayer(grids, "shadow_fraction", false);
-  const cv::Mat mask = hazardMask(slope_upper, rough_upper, shadow ? *shadow : cv::Mat(), thresholds);
+  const cv::Mat* shading = findLayer(grids, "shading_slope_deg", false);
+  const cv::Mat mask = hazardMask(slope_upper, rough_upper, shadow ? *shadow : cv::Mat(),
+                                  shading ? *shading : cv::Mat(), thresholds);
 
   // Clearance: distance to the nearest cell that is not safe with confidence; one border cell of unknown
   // around the grid so that leaving it counts too.

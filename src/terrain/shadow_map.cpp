@@ -51,8 +51,7 @@ cv::Mat ShadowMap::darkMask(const cv::Mat& gray) const {
 void ShadowMap::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray) {
   const cv::Mat mask = darkMask(gray);
   View view;
-  view.T_cam_world = T_world_cam.inverse();
-  view.centre_world = T_world_cam.translation();
+  view.pose = KeyframeView(T_world_cam);
   view.bits.assign(static_cast<size_t>(words_per_row_) * mask.rows, 0);
   for (int row = 0; row < mask.rows; ++row) {
     const uint8_t* m = mask.ptr<uint8_t>(row);
@@ -72,8 +71,6 @@ cv::Mat ShadowMap::shadowFraction(const GridGeometry& geometry, const cv::Mat& e
   cv::Mat fraction = geometry.newLayer();
   cv::Mat views = geometry.newLayer(0.0f);
   ShadowStats s;
-  const double inv_f = 1.0 / std::max(camera_.fx(), camera_.fy());
-  const double max_footprint = config_.max_pixel_footprint_m;
   for (int row = 0; row < geometry.rows; ++row) {
     const float* z = elevation_m.ptr<float>(row);
     float* f = fraction.ptr<float>(row);
@@ -83,15 +80,8 @@ cv::Mat ShadowMap::shadowFraction(const GridGeometry& geometry, const cv::Mat& e
       const Eigen::Vector3d p(geometry.x_m(col), geometry.y_m(row), z[col]);
       int n = 0, dark = 0;
       for (const View& view : views_) {
-        const Eigen::Vector3d ray = p - view.centre_world;
-        const double range = ray.norm();
-        const double cos_incidence = std::abs(ray.z()) / range;  // on a level cell
-        if (!(cos_incidence > 1e-3) || range * inv_f / cos_incidence > max_footprint) continue;
-        const Eigen::Vector3d p_cam = view.T_cam_world * p;
-        if (!(p_cam.z() > 0.0)) continue;
-        const Eigen::Vector2d ideal = camera_.project(p_cam);
-        if (!camera_.isInImage(ideal, 0.0)) continue;
-        const Eigen::Vector2d px = camera_.distortPixel(ideal);
+        Eigen::Vector2d px;
+        if (!resolvedPixel(camera_, view.pose, p, config_.max_pixel_footprint_m, &px)) continue;
         const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
         if (c < 0 || r < 0 || c >= camera_.width() || r >= camera_.height()) continue;
         ++n;

@@ -35,11 +35,14 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   const cv::Mat& r_est = layer(estimate, "roughness_m", "estimate");
   const cv::Mat hazard_true = hazardMask(s_true, r_true, thresholds);
   // The surface is scored wherever the estimate has a slope and roughness; the hazards as the estimate
-  // publishes them: its cells seen in shadow unknown (terrain/shadow_map.h), so not scored.
+  // publishes them: its cells seen in shadow unknown (terrain/shadow_map.h), so not scored, and its cells
+  // with shading relief above the threshold hazards (terrain/shading_relief.h).
   const cv::Mat surface_est = hazardMask(s_est, r_est, thresholds);
   const auto shadow = estimate.layers.find("shadow_fraction");
+  const auto shading = estimate.layers.find("shading_slope_deg");
   const cv::Mat hazard_est =
-      hazardMask(s_est, r_est, shadow == estimate.layers.end() ? cv::Mat() : shadow->second, thresholds);
+      hazardMask(s_est, r_est, shadow == estimate.layers.end() ? cv::Mat() : shadow->second,
+                 shading == estimate.layers.end() ? cv::Mat() : shading->second, thresholds);
   TerrainScore score;
   score.cells = truth.geometry.rows * truth.geometry.cols;
   int true_elevation = 0, true_surface = 0;

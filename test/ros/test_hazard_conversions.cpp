@@ -26,9 +26,10 @@ terrain::HazardProducts someProducts() {
   p.terrain.grids.geometry = g;
   p.terrain.metric = true;
   p.terrain.num_points = 1234;
-  const char* names[] = {"elevation_m",    "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg",
-                         "residual_rms_m", "slope_deg",         "roughness_m",    "shadow_fraction"};
-  for (int i = 0; i < 8; ++i) {
+  const char* names[] = {"elevation_m",     "elevation_sigma_m", "relief_sigma_m",
+                         "slope_sigma_deg", "residual_rms_m",    "slope_deg",
+                         "roughness_m",     "shadow_fraction",   "shading_slope_deg"};
+  for (int i = 0; i < 9; ++i) {
     cv::Mat layer = g.newLayer();
     for (int r = 0; r < g.rows; ++r)
       for (int c = 0; c < g.cols; ++c)
@@ -68,10 +69,13 @@ TEST(HazardConversions, RastersRoundTripWithTheGeometry) {
   EXPECT_DOUBLE_EQ(msg.info.origin.position.y, 9.75);
   const terrain::GridSet back = fromHazardMapMsg(msg);
   EXPECT_TRUE(back.geometry == products.terrain.grids.geometry);
-  for (const char* name : {"elevation_m", "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg",
-                           "residual_rms_m", "slope_deg", "roughness_m", "shadow_fraction"})
+  for (const char* name :
+       {"elevation_m", "elevation_sigma_m", "relief_sigma_m", "slope_sigma_deg", "residual_rms_m",
+        "slope_deg", "roughness_m", "shadow_fraction", "shading_slope_deg"})
     EXPECT_TRUE(sameBits(back.layers.at(name), products.terrain.grids.layers.at(name))) << name;
   EXPECT_EQ(back.parameters.at("max_shadow_fraction"), config.thresholds.max_shadow_fraction);
+  EXPECT_EQ(back.parameters.at("max_shading_slope_deg"), config.thresholds.max_shading_slope_deg);
+  EXPECT_EQ(back.parameters.at("sun_elevation_deg"), config.shading.sun_elevation_deg);
   EXPECT_EQ(back.parameters.at("footprint_diameter_m"), config.area.footprint_diameter_m);
   EXPECT_EQ(back.parameters.at("max_slope_deg"), config.thresholds.max_slope_deg);
 

@@ -19,6 +19,10 @@ struct HazardThresholds {
   /// slope turned from the Sun, smaller than the map's plane fit may resolve), so it is never certified safe.
   /// Used only where a shadow layer is given; 1 = shadows are ignored.
   double max_shadow_fraction = 0.5;
+  /// A cell whose shading relief (terrain/shading_relief.h: the RMS slope of the relief between 0.5 and 2 m
+  /// under the footprint, from the keyframes' shading) exceeds this is a hazard: craters of a metre or two
+  /// and rocks that the plane fit smooths away. Used only where a shading layer is given.
+  double max_shading_slope_deg = 3.0;
 };
 
 /// Cell values of hazardMask().
@@ -31,5 +35,9 @@ cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const H
 /// layer) exceeds thresholds.max_shadow_fraction is unknown (its relief unseen).
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
                    const HazardThresholds& thresholds);
+/// The same, and a known cell whose `shading_slope_deg` (CV_32F, NaN = not measured; empty = no layer)
+/// exceeds thresholds.max_shading_slope_deg is a hazard (unless unknown by the shadows).
+cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
+                   const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds);
 
 }  // namespace planetary_vo::terrain

@@ -28,6 +28,7 @@
 #include "planetary_vo/terrain/hazard.h"
 #include "planetary_vo/terrain/landing_area.h"
 #include "planetary_vo/terrain/landing_sites.h"
+#include "planetary_vo/terrain/shading_relief.h"
 #include "planetary_vo/terrain/shadow_map.h"
 #include "planetary_vo/terrain/terrain_map.h"
 #include "planetary_vo/vo/map_events.h"
@@ -42,6 +43,10 @@ struct HazardMapperConfig {
   /// The shadows of the keyframes once metric (shadow_map.h): a cell seen in shadow is unknown in the
   /// hazard mask, never a site (thresholds.max_shadow_fraction).
   ShadowMapConfig shadows;
+  /// The relief under the plane fit from the keyframes' shading once metric (shading_relief.h): a cell whose
+  /// RMS slope between 0.5 and 2 m exceeds thresholds.max_shading_slope_deg is a hazard. Needs the Sun's
+  /// elevation (shading.sun_elevation_deg; 0 = not given, then off).
+  ShadingReliefConfig shading;
   HazardThresholds thresholds;
   LandingSiteParams sites;
 };
@@ -70,10 +75,11 @@ std::vector<std::string> hazardMapperConfigSections();
 
 /// What one apply() did.
 struct HazardMapperUpdate {
-  bool keyframe = false;           ///< the events added a keyframe
-  bool densified = false;          ///< ... and the densifier ran on it
-  DensifierStats densifier;        ///< its counts when it ran
-  bool shadow_view_added = false;  ///< the keyframe's shadows were kept (metric, shadows enabled)
+  bool keyframe = false;            ///< the events added a keyframe
+  bool densified = false;           ///< ... and the densifier ran on it
+  DensifierStats densifier;         ///< its counts when it ran
+  bool shadow_view_added = false;   ///< the keyframe's shadows were kept (metric, shadows enabled)
+  bool shading_view_added = false;  ///< the keyframe's shading was kept (metric, Sun given, fine enough)
 };
 
 struct HazardProducts {
@@ -83,7 +89,10 @@ struct HazardProducts {
   /// take into account.
   TerrainProducts terrain;
   ShadowStats shadows;  ///< cells seen at the resolution, and in shadow
-  cv::Mat hazard;       ///< CV_8U hazardMask() of the layers (kSafe, kHazard, kUnknown)
+  /// Cells whose shading relief was measured, and above thresholds.max_shading_slope_deg (layer
+  /// shading_slope_deg when the Sun is given; the hazard mask and the sites take it into account).
+  ShadingStats shading;
+  cv::Mat hazard;  ///< CV_8U hazardMask() of the layers (kSafe, kHazard, kUnknown)
   /// Sites near config.sites' target, best first. Searched only on a metric map (distances, clearance and
   /// roughness in metres); otherwise empty with the reason.
   LandingSiteResult sites;
@@ -124,6 +133,7 @@ class HazardMapper {
   std::unique_ptr<PinholeCamera> camera_;
   std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<ShadowMap> shadows_;
+  std::unique_ptr<ShadingRelief> shading_;
   bool metric_ = false;
 };
 

@@ -8,6 +8,8 @@
 ///     <= max_roughness_m (terrain/hazard.h applied to the raised values; an unknown cell is never safe),
 ///     and, when the grid set has the layer `shadow_fraction` (terrain/shadow_map.h), it was not seen in
 ///     shadow in more than max_shadow_fraction of its views (such a cell is unknown: its relief is unseen);
+///     when it has the layer `shading_slope_deg` (terrain/shading_relief.h), that is at most
+///     max_shading_slope_deg (above, the shading shows relief the plane fit smooths away: a hazard);
 ///  2. its clearance, the distance from its centre to the centre of the nearest cell that is not safe with
 ///     confidence (hazardous, unknown, or outside the grid, which counts as unknown), is >= min_clearance_m;
 ///  3. its centre lies within max_distance_from_target_m of the target.

@@ -30,6 +30,7 @@
 #include "planetary_vo/geometry/camera_model.h"
 #include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/terrain/grid.h"
+#include "planetary_vo/terrain/keyframe_view.h"
 
 namespace planetary_vo::terrain {
 
@@ -77,8 +78,7 @@ class ShadowMap {
 
  private:
   struct View {
-    Pose T_cam_world;
-    Eigen::Vector3d centre_world;
+    KeyframeView pose;
     std::vector<uint64_t> bits;  ///< row-major, bit (col % 64) of word (row * words_per_row + col / 64)
   };
   PinholeCamera camera_;

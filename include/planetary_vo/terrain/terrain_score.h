@@ -4,7 +4,8 @@
 /// (render/terrain_truth.h): on the cells known in both, the elevation error (RMSE and mean, metres, world
 /// z), the slope and roughness errors, and the hazard map's precision and recall (terrain/hazard.h: a
 /// hazard found where there is one / every true hazard found; an estimate with the layer shadow_fraction
-/// has its cells seen in shadow unknown there, as it publishes them), plus how much of the area the
+/// has its cells seen in shadow unknown there, and one with shading_slope_deg its cells above
+/// max_shading_slope_deg hazards, as it publishes them), plus how much of the area the
 /// estimate covers at all. Both grid sets must share one geometry (the landing area of
 /// terrain/landing_area.h).
 

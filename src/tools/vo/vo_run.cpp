@@ -39,6 +39,7 @@
 #include <vector>
 
 #include <glog/logging.h>
+#include <yaml-cpp/yaml.h>
 #include <Eigen/Geometry>
 
 #include "planetary_vo/dataset/dataset.h"
@@ -66,6 +67,7 @@ struct Options {
   std::string covariance_path;
   std::string terrain_dir;
   std::string hazard_config_path;
+  double sun_elevation_deg = -1.0;  ///< < 0: the hazard config's, or when that is 0 the dataset's
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
   double cpu_budget_ms = -1.0;  ///< < 0: the configuration's cpu_budget.frame_budget_ms
@@ -75,6 +77,20 @@ struct Options {
 };
 
 /// A finite number >= lo from text; false when malformed.
+/// The Sun's elevation (deg) in a rendered dataset's sequence.yaml (`sun: elevation_deg`), the ephemeris a
+/// mission would have for its landing; 0 when absent or not readable (real data).
+double datasetSunElevationDeg(const std::string& sequence_yaml) {
+  try {
+    const YAML::Node root = YAML::Load(sequence_yaml);
+    if (root && root.IsMap() && root["sun"] && root["sun"]["elevation_deg"]) {
+      const double v = root["sun"]["elevation_deg"].as<double>();
+      if (v > 0.0 && v <= 89.0) return v;
+    }
+  } catch (const YAML::Exception&) {
+  }
+  return 0.0;
+}
+
 bool parseAtLeast(const std::string& text, double lo, double* out) {
   char* end = nullptr;
   *out = std::strtod(text.c_str(), &end);
@@ -119,6 +135,10 @@ void usage(std::ostream& out) {
          "                    the hazard layer, and DIR/landing_sites.yaml (terrain/hazard_mapper.h)\n"
          "  --hazard-config FILE  the terrain and hazard parameters for --output-terrain (default\n"
          "                    config/hazard.yaml's values)\n"
+         "  --sun-elevation-deg E  the Sun's elevation over the landing area (the ephemeris), for the\n"
+         "                    shading relief of the hazard map (terrain/shading_relief.h); 0 = none.\n"
+         "                    Default: the hazard config's, or when that is 0 the dataset's\n"
+         "                    sequence.yaml sun\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -197,6 +217,16 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!value(&options->terrain_dir)) return false;
     } else if (arg == "--hazard-config") {
       if (!value(&options->hazard_config_path)) return false;
+    } else if (arg == "--sun-elevation-deg") {
+      std::string text;
+      if (!value(&text)) return false;
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (end == text.c_str() || *end != '\0' || !(v >= 0.0 && v <= 89.0)) {
+        std::cerr << "vo_run: --sun-elevation-deg needs a number in [0, 89], got '" << text << "'\n";
+        return false;
+      }
+      options->sun_elevation_deg = v;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-pose-only") {
@@ -330,9 +360,24 @@ int main(int argc, char** argv) {
     terrain::DensifierStats densified;
     if (!options.terrain_dir.empty()) {
       std::filesystem::create_directories(options.terrain_dir);
-      hazard_mapper.emplace(options.hazard_config_path.empty()
-                                ? terrain::HazardMapperConfig()
-                                : terrain::loadHazardMapperConfig(options.hazard_config_path));
+      terrain::HazardMapperConfig hazard_config =
+          options.hazard_config_path.empty() ? terrain::HazardMapperConfig()
+                                             : terrain::loadHazardMapperConfig(options.hazard_config_path);
+      std::string sun_source = "--sun-elevation-deg";
+      if (options.sun_elevation_deg >= 0.0) {
+        hazard_config.shading.sun_elevation_deg = options.sun_elevation_deg;
+      } else if (hazard_config.shading.sun_elevation_deg > 0.0) {
+        sun_source = "the hazard config";
+      } else {
+        hazard_config.shading.sun_elevation_deg = datasetSunElevationDeg(dataset.sequenceYaml());
+        sun_source = "the dataset's sequence.yaml (the ephemeris of the landing)";
+      }
+      if (!options.quiet && hazard_config.shading.enabled)
+        std::printf(hazard_config.shading.sun_elevation_deg > 0.0
+                        ? "terrain: Sun elevation %.1f deg from %s: shading relief on\n"
+                        : "terrain: Sun elevation %.0f (not given by %s): shading relief off\n",
+                    hazard_config.shading.sun_elevation_deg, sun_source.c_str());
+      hazard_mapper.emplace(hazard_config);
       hazard_mapper->setCamera(dataset.camera());
     }
     Trajectory trajectory;
@@ -454,6 +499,10 @@ int main(int argc, char** argv) {
             products.num_points, products.num_used, products.cells_known,
             products.grids.geometry.rows * products.grids.geometry.cols,
             products.metric ? "" : " (NOT metric: map units)", options.terrain_dir.c_str());
+      if (!options.quiet && products.grids.layers.count("shading_slope_deg"))
+        std::printf("terrain: shading relief: %d cells measured, %d of them above %.1f deg (hazards)\n",
+                    hazard.shading.cells_measured, hazard.shading.cells_above,
+                    hazard_mapper->config().thresholds.max_shading_slope_deg);
       if (!options.quiet && products.grids.layers.count("shadow_fraction"))
         std::printf(
             "terrain: shadows: %d cells seen at the resolution by the last keyframes, %d of them in shadow\n",

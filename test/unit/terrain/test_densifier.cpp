@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "level_ground_views.h"
 #include "octave_texture.h"
 #include "planetary_vo/terrain/densifier.h"
 #include "planetary_vo/terrain/terrain_map.h"
@@ -49,14 +50,7 @@ cv::Mat render(const cv::Mat& tex, const PinholeCamera& camera, const Pose& T_wo
   return image;
 }
 
-Pose nadirAt(double x, double y, double z) {
-  Pose T = Pose::Identity();
-  T.linear().col(0) = Eigen::Vector3d::UnitX();
-  T.linear().col(1) = -Eigen::Vector3d::UnitY();
-  T.linear().col(2) = -Eigen::Vector3d::UnitZ();
-  T.translation() = Eigen::Vector3d(x, y, z);
-  return T;
-}
+using test::nadirAt;
 
 }  // namespace
 

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "level_ground_views.h"
 #include "planetary_vo/terrain/hazard_mapper.h"
 #include "test_support.h"
 
@@ -205,18 +206,12 @@ TEST(HazardMapper, NoSiteNextToAShadowTheKeyframesSaw) {
   config.sites.target_x_m = -15.0;
   config.densify = false;
   const PinholeCamera camera = PinholeCamera::fromFieldOfView(320, 320, 60.0);
-  Pose T_world_cam = Pose::Identity();
-  T_world_cam.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // nadir: optical z down, image y toward -y
-  T_world_cam.translation() = Eigen::Vector3d(-15.0, 0.0, 40.0);
-  cv::Mat gray(camera.height(), camera.width(), CV_8UC1);
-  for (int r = 0; r < gray.rows; ++r)
-    for (int c = 0; c < gray.cols; ++c) {
-      const Eigen::Vector3d d = T_world_cam.linear() * camera.distortedPixelToBearing({double(c), double(r)});
-      const Eigen::Vector3d p = T_world_cam.translation() - T_world_cam.translation().z() / d.z() * d;
-      const bool shadow = std::abs(p.x() + 15.0) <= 1.0 && std::abs(p.y()) <= 1.0;
-      const bool odd = (int(std::floor(p.x())) + int(std::floor(p.y()))) % 2 != 0;
-      gray.at<uint8_t>(r, c) = shadow ? 3 : (odd ? 150 : 90);
-    }
+  const Pose T_world_cam = test::nadirAt(-15.0, 0.0, 40.0);
+  const cv::Mat gray = test::renderLevelGround(camera, T_world_cam, 0.0, [](const Eigen::Vector3d& p) {
+    const bool shadow = std::abs(p.x() + 15.0) <= 1.0 && std::abs(p.y()) <= 1.0;
+    const bool odd = (int(std::floor(p.x())) + int(std::floor(p.y()))) % 2 != 0;
+    return uint8_t(shadow ? 3 : (odd ? 150 : 90));
+  });
   MapEvents events = pointsOnSurface();
   MapKeyframeState kf;
   kf.id = 1;
@@ -244,6 +239,57 @@ TEST(HazardMapper, NoSiteNextToAShadowTheKeyframesSaw) {
                 1.0 + config.sites.min_clearance_m - 0.5);
     } else {
       EXPECT_FALSE(products.terrain.grids.layers.count("shadow_fraction"));
+      EXPECT_EQ(products.hazard.at<uint8_t>(row, col), kSafe);
+      EXPECT_DOUBLE_EQ(best.x_m, -15.0);
+      EXPECT_DOUBLE_EQ(best.y_m, 0.0);
+    }
+  }
+}
+
+TEST(HazardMapper, NoSiteOnReliefTheShadingShowsUnderAHighSun) {
+  // The plain again, target (-15, 0); a nadir keyframe from 40 m under a Sun 30 deg high sees, on a 6 m
+  // square at the target, a washboard (4 m wavelength, slopes up to 8.5 deg, 9 cm high: no shadow, and
+  // under the 2 m plane fit) shaded by the Lambert law. With the Sun's elevation given its cells are
+  // hazards (shading relief about 4.4 deg RMS against 3) and the site keeps clear; without it (0: not
+  // given) the site is the target itself.
+  HazardMapperConfig config = smallArea();
+  config.sites.target_x_m = -15.0;
+  config.densify = false;
+  const PinholeCamera camera = PinholeCamera::fromFieldOfView(320, 320, 60.0);
+  const Pose T_world_cam = test::nadirAt(-15.0, 0.0, 40.0);
+  const double e = 30.0 * M_PI / 180.0, amplitude = std::tan(8.5 * M_PI / 180.0);
+  const Eigen::Vector3d sun(std::cos(e), 0.0, std::sin(e));
+  const cv::Mat gray = test::renderLevelGround(camera, T_world_cam, 0.0, [&](const Eigen::Vector3d& p) {
+    const bool washboard = std::abs(p.x() + 15.0) <= 3.0 && std::abs(p.y()) <= 3.0;
+    const double gradient = washboard ? amplitude * std::cos(2.0 * M_PI * p.x() / 4.0) : 0.0;
+    const double lit = Eigen::Vector3d(-gradient, 0.0, 1.0).normalized().dot(sun) / std::sin(e);
+    return static_cast<uint8_t>(std::lround(120.0 * lit));
+  });
+  MapEvents events = pointsOnSurface();
+  MapKeyframeState kf;
+  kf.id = 1;
+  kf.T_world_cam = T_world_cam;
+  events.keyframes_added.push_back(kf);
+
+  for (const double sun_elevation_deg : {30.0, 0.0}) {
+    config.shading.sun_elevation_deg = sun_elevation_deg;
+    HazardMapper mapper(config);
+    mapper.setCamera(camera);
+    const bool given = sun_elevation_deg > 0.0;
+    EXPECT_EQ(mapper.apply(events, true, gray).shading_view_added, given);
+    const HazardProducts products = mapper.products();
+    ASSERT_FALSE(products.sites.sites.empty()) << products.sites.reason;
+    const LandingSite& best = products.sites.sites.front();
+    int col = 0, row = 0;
+    ASSERT_TRUE(products.terrain.grids.geometry.cellAt(-15.0, 0.0, &col, &row));
+    EXPECT_EQ(products.shadows.cells_shadowed, 0);  // no shadow: only the shading shows the relief
+    if (given) {
+      ASSERT_TRUE(products.terrain.grids.layers.count("shading_slope_deg"));
+      EXPECT_NEAR(products.terrain.grids.layers.at("shading_slope_deg").at<float>(row, col), 4.4, 0.9);
+      EXPECT_EQ(products.hazard.at<uint8_t>(row, col), kHazard);
+      EXPECT_GE(std::max(std::abs(best.x_m + 15.0), std::abs(best.y_m)), 3.0);
+    } else {
+      EXPECT_FALSE(products.terrain.grids.layers.count("shading_slope_deg"));
       EXPECT_EQ(products.hazard.at<uint8_t>(row, col), kSafe);
       EXPECT_DOUBLE_EQ(best.x_m, -15.0);
       EXPECT_DOUBLE_EQ(best.y_m, 0.0);

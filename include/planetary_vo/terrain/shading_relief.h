@@ -1,0 +1,101 @@
+#pragma once
+/// @file shading_relief.h
+/// Relief smaller than the map's plane fit, read from the shading of the keyframe images (issue 11: the
+/// rocks and small craters that a high Sun leaves without shadow).
+///
+/// The terrain model fits a plane to the points within 4 m of a cell (terrain_map.h), so a crater 1-2 m
+/// across or a rock 0.3 m high is smoothed away; at a low Sun their shadows mark them (shadow_map.h), at a
+/// Sun above about 15 deg they cast almost none (session 11's campaign: every unsafe site was there). Their
+/// facets still shade: with the Sun at elevation e over level ground, a facet tilted by a small angle s
+/// toward or away from the Sun changes the brightness by a fraction of about s / tan(e) (Lambert; the
+/// Lunar-Lambert law of the Moon's regolith behaves alike at the phase angles of a descent), while the
+/// albedo of the regolith varies over tens of metres, not over one. So the relative brightness between
+/// two scales of relief, times tan(e), measures the slopes of that relief in radians.
+///
+/// Per keyframe (addKeyframe): the image is reduced so that band_min_m spans at least 2 pixels, blurred at
+/// band_min_m and band_max_m (Gaussian sigmas, in metres of ground at the image centre), and the squared
+/// relative difference (G_min - G_max)^2 / G_max^2 is kept (16-bit float) with the pose. Per query
+/// (slopeRms): every cell of known elevation is projected into the kept views whose pixel covers at most
+/// max_pixel_footprint_m there; the cell's energy is the mean over them; the result is the root mean square
+/// over the lander's footprint disc of those energies times tan(sun elevation), in degrees: the RMS slope
+/// of the relief between band_min_m and band_max_m under the footprint. The hazard map marks a cell whose
+/// value exceeds thresholds.max_shading_slope_deg a hazard (hazard.h).
+///
+/// Needs the Sun's elevation over the landing area (the mission's ephemeris at the landing time; the
+/// dataset's sequence.yaml gives the one it was rendered with): sun_elevation_deg = 0 means not given, and
+/// no shading relief is computed. The local tilt of the ground is ignored (the Sun's elevation is taken over
+/// level ground), and the Sun's azimuth is not needed: the measure is the magnitude of the shading, not its
+/// sign. Frames: the world of the poses (gravity-aligned, z up, metres), as the shadow map.
+
+#include <deque>
+
+#include <opencv2/core.hpp>
+
+#include "planetary_vo/geometry/camera_model.h"
+#include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/terrain/grid.h"
+#include "planetary_vo/terrain/keyframe_view.h"
+
+namespace planetary_vo::terrain {
+
+struct ShadingReliefConfig {
+  bool enabled = true;
+  /// [deg] The Sun's elevation over the landing area at the time of the landing (ephemeris). 0 = not given:
+  /// no shading relief. Must be in [0, 89].
+  double sun_elevation_deg = 0.0;
+  /// [m] The band of relief measured: Gaussian sigmas on the ground. Tuned on the true terrain of four
+  /// rendered approaches at Sun 12-43 deg (docs/terrain/README.md): 0.5-2 m separated the cells rough by the
+  /// truth best of 0.1-2 m bands.
+  double band_min_m = 0.5;
+  double band_max_m = 2.0;
+  /// [m] A view counts for a cell only when one of its pixels covers at most this much ground there, and a
+  /// keyframe is kept only when its image centre does.
+  double max_pixel_footprint_m = 0.25;
+  /// The last N keyframes that qualify are kept (16-bit per pixel of the reduced image).
+  int max_keyframes = 30;
+};
+
+struct ShadingStats {
+  int cells_measured = 0;  ///< cells with a value (views at the resolution under enough of the footprint)
+  int cells_above = 0;     ///< ... of which above `above_deg`
+};
+
+class ShadingRelief {
+ public:
+  /// Throws std::invalid_argument on an invalid camera or config.
+  ShadingRelief(const PinholeCamera& camera, const ShadingReliefConfig& config = ShadingReliefConfig());
+
+  /// Keeps the relative band energy of a keyframe's image (CV_8UC1 of the camera's size, else
+  /// std::invalid_argument) with its pose. ground_elevation_m: the ground's height (world z) under the
+  /// camera, for the scale of the band. Returns false (nothing kept) when the Sun is not given, the
+  /// optical axis does not point down, or the pixel at the image centre is coarser than
+  /// max_pixel_footprint_m.
+  bool addKeyframe(const Pose& T_world_cam, const cv::Mat& gray, double ground_elevation_m);
+  void clear() { views_.clear(); }
+  size_t numKeyframes() const { return views_.size(); }
+  bool active() const { return config_.enabled && config_.sun_elevation_deg > 0.0; }
+
+  /// Per cell of `elevation_m` (CV_32F on `geometry`, NaN = unknown): the RMS slope (deg) of the relief in
+  /// the band over the disc of `footprint_diameter_m` around the cell; NaN where the cell's elevation is
+  /// unknown or fewer than half of the disc's cells are seen by a view at the resolution. `stats` counts
+  /// the cells above `above_deg`.
+  cv::Mat slopeRms(const GridGeometry& geometry, const cv::Mat& elevation_m, double footprint_diameter_m,
+                   ShadingStats* stats = nullptr, double above_deg = 0.0) const;
+
+  /// The relative band energy of one image whose centre pixel covers `pixel_footprint_m` of ground
+  /// (CV_32F, of the reduced size; `scale_out`: full-resolution pixels per reduced pixel): what addKeyframe
+  /// keeps.
+  cv::Mat bandEnergy(const cv::Mat& gray, double pixel_footprint_m, int* scale_out) const;
+
+ private:
+  struct View {
+    KeyframeView pose;
+    int scale = 1;
+    cv::Mat energy;  ///< CV_16F
+  };
+  PinholeCamera camera_;
+  ShadingReliefConfig config_;
+  std::deque<View> views_;
+};
+
+}  // namespace planetary_vo::terrain

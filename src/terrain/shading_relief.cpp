@@ -1,0 +1,145 @@
+#include "planetary_vo/terrain/shading_relief.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace planetary_vo::terrain {
+
+ShadingRelief::ShadingRelief(const PinholeCamera& camera, const ShadingReliefConfig& config)
+    : camera_(camera), config_(config) {
+  std::string why;
+  if (!camera_.isValid(&why)) throw std::invalid_argument("ShadingRelief: invalid camera: " + why);
+  if (!(config_.sun_elevation_deg >= 0.0 && config_.sun_elevation_deg <= 89.0) ||
+      !(config_.band_min_m > 0.0 && config_.band_max_m > config_.band_min_m &&
+        std::isfinite(config_.band_max_m)) ||
+      !(config_.max_pixel_footprint_m > 0.0 && std::isfinite(config_.max_pixel_footprint_m)) ||
+      config_.max_keyframes < 1)
+    throw std::invalid_argument(
+        "ShadingRelief: invalid configuration (sun_elevation_deg in [0, 89], 0 < band_min_m < band_max_m, "
+        "max_pixel_footprint_m > 0, max_keyframes >= 1)");
+}
+
+cv::Mat ShadingRelief::bandEnergy(const cv::Mat& gray, double pixel_footprint_m, int* scale_out) const {
+  if (gray.type() != CV_8UC1 || gray.cols != camera_.width() || gray.rows != camera_.height())
+    throw std::invalid_argument("ShadingRelief: the keyframe image is not 8-bit gray of the camera's size (" +
+                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
+                                std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()) +
+                                ")");
+  if (!(pixel_footprint_m > 0.0)) throw std::invalid_argument("ShadingRelief: pixel footprint must be > 0");
+  // Reduce while band_min_m still spans at least 2 pixels.
+  cv::Mat image;
+  gray.convertTo(image, CV_32F);
+  int scale = 1;
+  while (config_.band_min_m / (pixel_footprint_m * scale * 2) >= 2.0 && image.cols >= 64 &&
+         image.rows >= 64) {
+    cv::pyrDown(image, image);
+    scale *= 2;
+  }
+  const double footprint = pixel_footprint_m * scale;
+  cv::Mat fine, coarse;
+  cv::GaussianBlur(image, fine, cv::Size(), config_.band_min_m / footprint, 0.0, cv::BORDER_REFLECT);
+  cv::GaussianBlur(image, coarse, cv::Size(), config_.band_max_m / footprint, 0.0, cv::BORDER_REFLECT);
+  cv::Mat energy(image.size(), CV_32F);
+  for (int r = 0; r < image.rows; ++r) {
+    const float* f = fine.ptr<float>(r);
+    const float* c = coarse.ptr<float>(r);
+    float* e = energy.ptr<float>(r);
+    for (int col = 0; col < image.cols; ++col) {
+      // The black level: below 1 DN of the coarse mean the ratio means nothing (a shadow, which the shadow
+      // map handles), so the denominator is held at 1.
+      const float relative = (f[col] - c[col]) / std::max(c[col], 1.0f);
+      e[col] = relative * relative;
+    }
+  }
+  if (scale_out) *scale_out = scale;
+  return energy;
+}
+
+bool ShadingRelief::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray, double ground_elevation_m) {
+  if (!active()) return false;
+  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
+  const double height = T_world_cam.translation().z() - ground_elevation_m;
+  if (!(axis.z() < -0.1) || !(height > 0.0)) return false;
+  const double footprint = height / -axis.z() / std::max(camera_.fx(), camera_.fy());
+  if (footprint > config_.max_pixel_footprint_m) return false;
+  View view;
+  view.pose = KeyframeView(T_world_cam);
+  bandEnergy(gray, footprint, &view.scale).convertTo(view.energy, CV_16F);
+  views_.push_back(std::move(view));
+  while (views_.size() > static_cast<size_t>(config_.max_keyframes)) views_.pop_front();
+  return true;
+}
+
+cv::Mat ShadingRelief::slopeRms(const GridGeometry& geometry, const cv::Mat& elevation_m,
+                                double footprint_diameter_m, ShadingStats* stats, double above_deg) const {
+  if (elevation_m.type() != CV_32FC1 || elevation_m.rows != geometry.rows ||
+      elevation_m.cols != geometry.cols)
+    throw std::invalid_argument("ShadingRelief::slopeRms: the elevation is not a CV_32F layer of the grid");
+  if (!(footprint_diameter_m > 0.0)) throw std::invalid_argument("ShadingRelief::slopeRms: footprint <= 0");
+  cv::Mat result = geometry.newLayer();
+  ShadingStats s;
+  if (!active() || views_.empty()) {
+    if (stats) *stats = s;
+    return result;
+  }
+  // The mean energy of each cell over the views that resolve it.
+  cv::Mat cell_energy = geometry.newLayer();
+  for (int row = 0; row < geometry.rows; ++row) {
+    const float* z = elevation_m.ptr<float>(row);
+    float* out = cell_energy.ptr<float>(row);
+    for (int col = 0; col < geometry.cols; ++col) {
+      if (!std::isfinite(z[col])) continue;
+      const Eigen::Vector3d p(geometry.x_m(col), geometry.y_m(row), z[col]);
+      double sum = 0.0;
+      int n = 0;
+      for (const View& view : views_) {
+        Eigen::Vector2d px;
+        if (!resolvedPixel(camera_, view.pose, p, config_.max_pixel_footprint_m, &px)) continue;
+        px /= view.scale;
+        const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
+        if (c < 0 || r < 0 || c >= view.energy.cols || r >= view.energy.rows) continue;
+        sum += static_cast<float>(view.energy.at<cv::float16_t>(r, c));
+        ++n;
+      }
+      if (n > 0) out[col] = static_cast<float>(sum / n);
+    }
+  }
+  // RMS over the footprint disc, in degrees of slope.
+  const double radius_cells = 0.5 * footprint_diameter_m / geometry.cell_size_m;
+  const int reach = static_cast<int>(std::floor(radius_cells));
+  std::vector<cv::Point> disc;
+  for (int dr = -reach; dr <= reach; ++dr)
+    for (int dc = -reach; dc <= reach; ++dc)
+      if (dr * dr + dc * dc <= radius_cells * radius_cells) disc.emplace_back(dc, dr);
+  const double to_deg = std::tan(config_.sun_elevation_deg * M_PI / 180.0) * 180.0 / M_PI;
+  for (int row = 0; row < geometry.rows; ++row) {
+    float* out = result.ptr<float>(row);
+    const float* z = elevation_m.ptr<float>(row);
+    for (int col = 0; col < geometry.cols; ++col) {
+      if (!std::isfinite(z[col])) continue;
+      double sum = 0.0;
+      int n = 0;
+      for (const cv::Point& d : disc) {
+        const int c = col + d.x, r = row + d.y;
+        if (!geometry.contains(c, r)) continue;
+        const float e = cell_energy.at<float>(r, c);
+        if (!std::isfinite(e)) continue;
+        sum += e;
+        ++n;
+      }
+      if (2 * n < static_cast<int>(disc.size())) continue;
+      out[col] = static_cast<float>(std::sqrt(sum / n) * to_deg);
+      ++s.cells_measured;
+      if (out[col] > above_deg) ++s.cells_above;
+    }
+  }
+  if (stats) *stats = s;
+  return result;
+}
+
+}  // namespace planetary_vo::terrain
