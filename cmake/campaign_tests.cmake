@@ -56,6 +56,7 @@ if(VO_TEST_DATASET)
   add_descent_tool_test(sensitivity_tool test_sensitivity_tool.py SENSITIVITY_TEST_OUTPUT 600)
   # terrain_errors_tool: scripts/terrain_errors.py (docs/terrain/README.md) on the descent's true terrain taken
   # as the estimate: its slope RMSE and precision/recall equal terrain_eval's at the map's resolution, and its
-  # white-noise table falls with the noise
+  # white-noise table falls with the noise; its shading-relief report separates perfectly with the true roughness as
+  # the layer
   add_descent_tool_test(terrain_errors_tool test_terrain_errors.py TERRAIN_ERRORS_TEST_OUTPUT 300)
 endif()

@@ -6,7 +6,9 @@ resolution (the truth seen through its plane-fit support, terrain/resolution.h, 
 `terrain_eval --write-truth-at-resolution`) down by the distance of a cell from the edge of the known cells and by
 the true slope, says which threshold makes the true hazards (slope or roughness), how many cells sit near the slope
 threshold, and what precision and recall the true slopes of the same cells would give with white noise of a given
-sigma added (seeded): the slope accuracy a precision/recall target needs on this terrain.
+sigma added (seeded): the slope accuracy a precision/recall target needs on this terrain. When the map has the shading
+relief (layer shading_slope_deg, terrain/shading_relief.h), how well it separates the cells the truth (as sampled, the
+4 m footprint) calls rough from the truly safe ones: ROC AUC, percentiles and the share of each flagged by thresholds.
 
   /usr/bin/python3 scripts/terrain_errors.py --gt DATASET_DIR --est DIR [--work DIR] [--max-slope-deg 10]
         [--max-roughness-m 0.3] [--seed 1]
@@ -70,6 +72,8 @@ def main():
     ap.add_argument("--max-slope-deg", type=float, default=10.0)
     ap.add_argument("--max-roughness-m", type=float, default=0.3)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--shading-thresholds", default="2,2.5,3,3.5,4",
+                    help="thresholds (deg) at which the shading relief's flagged shares are printed")
     a = ap.parse_args()
     work = a.work or tempfile.mkdtemp(prefix="terrain_errors_")
     cmd = [os.path.join(BIN, "terrain_eval"), "--gt", a.gt, "--est", a.est, "--max-slope-deg", str(a.max_slope_deg),
@@ -122,6 +126,33 @@ def main():
             p.append(hit / max(1, noisy.sum()))
             r.append(hit / max(1, true_h[m].sum()))
         print(f"    sigma {sigma:4.2f} deg: precision {np.mean(p):.2f}, recall {np.mean(r):.2f}")
+    shading_path = os.path.join(a.est, "terrain_shading_slope_deg.tiff")
+    if os.path.exists(shading_path):
+        shading_report(read_tiff(shading_path), a)
+
+
+def auc(pos, neg):
+    """Probability that a random positive scores above a random negative (Mann-Whitney, ties broken by order)."""
+    ranks = np.concatenate([pos, neg]).argsort().argsort() + 1
+    return (ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2) / (len(pos) * len(neg))
+
+
+def shading_report(v, a):
+    """The shading relief against the truth as sampled (the 4 m footprint's slope and roughness)."""
+    ts = read_tiff(os.path.join(a.gt, "groundtruth_terrain_slope_deg.tiff"))
+    tr = read_tiff(os.path.join(a.gt, "groundtruth_terrain_roughness_m.tiff"))
+    ok = np.isfinite(v) & np.isfinite(ts) & np.isfinite(tr)
+    rough = ok & (tr > a.max_roughness_m)
+    safe = ok & (ts <= a.max_slope_deg) & (tr <= a.max_roughness_m)
+    print(f"  shading relief: {int(ok.sum())} cells measured; truly rough (> {a.max_roughness_m:g} m) "
+          f"{int(rough.sum())}, truly safe {int(safe.sum())}")
+    if not rough.any() or not safe.any():
+        return
+    print(f"    ROC AUC rough vs safe {auc(v[rough], v[safe]):.3f}; rough p5/p10/p50 "
+          + "/".join(f"{x:.2f}" for x in np.percentile(v[rough], [5, 10, 50])) + " deg, safe p50/p80/p90 "
+          + "/".join(f"{x:.2f}" for x in np.percentile(v[safe], [50, 80, 90])) + " deg")
+    for th in [float(x) for x in a.shading_thresholds.split(",") if x]:
+        print(f"    above {th:g} deg: rough {np.mean(v[rough] > th):.3f}, safe {np.mean(v[safe] > th):.3f}")
 
 
 if __name__ == "__main__":

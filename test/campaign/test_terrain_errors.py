@@ -3,7 +3,9 @@ taken as the "estimate" (its own TIFF layers, stated at a 4 m support), so that 
 truth at that resolution, which it writes with --write-truth-at-resolution. The breakdown script reads those TIFFs
 itself: its slope RMSE and hazard precision/recall must be terrain_eval's to the printed digits (one layer misread,
 or the truth as sampled in place of the truth at the map's resolution, would not be: the latter gives 0.00 deg against
-2.03), and its white-noise table must fall with the noise."""
+2.03), and its white-noise table must fall with the noise. The shading-relief report is checked with the true roughness
+as the layer: it separates the truly rough cells from the truly safe ones perfectly (AUC 1, all flagged above 0.3 and
+none of the safe), which a mixed-up mask or a reversed AUC would not."""
 import json
 import os
 import re
@@ -63,6 +65,20 @@ class TerrainErrors(unittest.TestCase):
         noise = [float(x) for x in re.findall(r"sigma [0-9.]+ deg: precision ([0-9.]+)", printed)]
         self.assertEqual(len(noise), 6)
         self.assertGreater(noise[0], noise[-1] + 0.1, printed)  # 0.25 deg of noise against 2 deg
+        self.assertNotIn("shading relief", printed)  # no layer, no report
+
+        # The true roughness as the shading layer: a perfect separator at the roughness threshold.
+        shutil.copy(os.path.join(dataset, "groundtruth_terrain_roughness_m.tiff"),
+                    os.path.join(est, "terrain_shading_slope_deg.tiff"))
+        done = subprocess.run([PYTHON, TOOL, "--gt", dataset, "--est", est, "--work", os.path.join(out, "work"),
+                               "--shading-thresholds", "0.3"], capture_output=True, text=True, timeout=300, env=env)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        printed = done.stdout
+        rough, safe = (int(x) for x in re.search(r"truly rough \(> 0.3 m\) (\d+), truly safe (\d+)", printed).groups())
+        self.assertGreater(rough, 0, printed)
+        self.assertGreater(safe, 0, printed)
+        self.assertIn("ROC AUC rough vs safe 1.000", printed)
+        self.assertIn("above 0.3 deg: rough 1.000, safe 0.000", printed)
 
 
 if __name__ == "__main__":
