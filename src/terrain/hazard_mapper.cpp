@@ -63,6 +63,7 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
       {"shading",
        {{"enabled", &c->shading.enabled},
         {"sun_elevation_deg", &c->shading.sun_elevation_deg},
+        {"min_sun_elevation_deg", &c->shading.min_sun_elevation_deg},
         {"band_min_m", &c->shading.band_min_m},
         {"band_max_m", &c->shading.band_max_m},
         {"max_pixel_footprint_m", &c->shading.max_pixel_footprint_m},

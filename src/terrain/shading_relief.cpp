@@ -15,12 +15,14 @@ ShadingRelief::ShadingRelief(const PinholeCamera& camera, const ShadingReliefCon
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("ShadingRelief: invalid camera: " + why);
   if (!(config_.sun_elevation_deg >= 0.0 && config_.sun_elevation_deg <= 89.0) ||
+      !(config_.min_sun_elevation_deg >= 0.0 && config_.min_sun_elevation_deg <= 89.0) ||
       !(config_.band_min_m > 0.0 && config_.band_max_m > config_.band_min_m &&
         std::isfinite(config_.band_max_m)) ||
       !(config_.max_pixel_footprint_m > 0.0 && std::isfinite(config_.max_pixel_footprint_m)) ||
       config_.max_keyframes < 1)
     throw std::invalid_argument(
-        "ShadingRelief: invalid configuration (sun_elevation_deg in [0, 89], 0 < band_min_m < band_max_m, "
+        "ShadingRelief: invalid configuration (sun_elevation_deg and min_sun_elevation_deg in [0, 89], 0 < "
+        "band_min_m < band_max_m, "
         "max_pixel_footprint_m > 0, max_keyframes >= 1)");
 }
 

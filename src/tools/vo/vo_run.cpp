@@ -372,11 +372,20 @@ int main(int argc, char** argv) {
         hazard_config.shading.sun_elevation_deg = datasetSunElevationDeg(dataset.sequenceYaml());
         sun_source = "the dataset's sequence.yaml (the ephemeris of the landing)";
       }
-      if (!options.quiet && hazard_config.shading.enabled)
-        std::printf(hazard_config.shading.sun_elevation_deg > 0.0
-                        ? "terrain: Sun elevation %.1f deg from %s: shading relief on\n"
-                        : "terrain: Sun elevation %.0f (not given by %s): shading relief off\n",
-                    hazard_config.shading.sun_elevation_deg, sun_source.c_str());
+      const terrain::ShadingReliefConfig& shading = hazard_config.shading;
+      if (!options.quiet && shading.enabled) {
+        if (!(shading.sun_elevation_deg > 0.0))
+          std::printf("terrain: no Sun elevation (not given by %s): shading relief off\n",
+                      sun_source.c_str());
+        else if (shading.sun_elevation_deg < shading.min_sun_elevation_deg)
+          std::printf(
+              "terrain: Sun elevation %.1f deg from %s, below %.0f deg: shading relief off (the shadows take "
+              "over)\n",
+              shading.sun_elevation_deg, sun_source.c_str(), shading.min_sun_elevation_deg);
+        else
+          std::printf("terrain: Sun elevation %.1f deg from %s: shading relief on\n",
+                      shading.sun_elevation_deg, sun_source.c_str());
+      }
       hazard_mapper.emplace(hazard_config);
       hazard_mapper->setCamera(dataset.camera());
     }

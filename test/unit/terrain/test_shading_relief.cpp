@@ -2,7 +2,8 @@
 // known slope (a sinusoid along the Sun's azimuth, 4 m wavelength, inside the 0.5-2 m band) that no plane
 // fit over the 4 m footprint would see. The washboard reads its RMS slope times the band's transfer at
 // 4 m (about 0.73) and the same at two Sun elevations (the tan(e) normalisation); the level half reads
-// near zero; the hazard mask marks the washboard a hazard only with the layer; no Sun, no layer.
+// near zero; the hazard mask marks the washboard a hazard only with the layer; no Sun (or one below
+// min_sun_elevation_deg), no layer.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -142,12 +143,18 @@ TEST(ShadingRelief, TheWashboardIsAHazardOnlyWithTheShadingLayer) {
   EXPECT_EQ(level_hazard_with, 0);
 }
 
-TEST(ShadingRelief, WithoutTheSunOrFromTooHighNothingIsKeptAndNothingRead) {
+TEST(ShadingRelief, WithoutTheSunUnderALowSunOrFromTooHighNothingIsKeptAndNothingRead) {
   const Pose T = nadirAt(0.0, 0.0, kHeight);
   const cv::Mat image = render(camera(), T, 30.0);
   const GridGeometry g = GridGeometry::centeredOnOrigin(14.0, 0.5);
   ShadingRelief no_sun(camera());  // sun_elevation_deg 0: not given
   EXPECT_FALSE(no_sun.active());
+  ShadingReliefConfig low;
+  low.sun_elevation_deg = 12.0;  // below min_sun_elevation_deg (15): the shadows take over
+  EXPECT_FALSE(ShadingRelief(camera(), low).active());
+  EXPECT_FALSE(ShadingRelief(camera(), low).addKeyframe(T, image, 0.0));
+  low.min_sun_elevation_deg = 10.0;
+  EXPECT_TRUE(ShadingRelief(camera(), low).active());
   EXPECT_FALSE(no_sun.addKeyframe(T, image, 0.0));
   EXPECT_EQ(cv::countNonZero(no_sun.slopeRms(g, g.newLayer(0.0f), 4.0) ==
                              no_sun.slopeRms(g, g.newLayer(0.0f), 4.0)),
