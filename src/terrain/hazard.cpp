@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace planetary_vo::terrain {
 
@@ -25,32 +27,26 @@ cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const H
 }
 
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
-                   const HazardThresholds& thresholds) {
-  cv::Mat mask = hazardMask(slope_deg, roughness_m, thresholds);
-  if (shadow_fraction.empty()) return mask;
-  if (shadow_fraction.type() != CV_32FC1 || shadow_fraction.size() != mask.size())
-    throw std::invalid_argument("hazardMask: the shadow fraction must be a CV_32F layer of the slope's size");
-  for (int row = 0; row < mask.rows; ++row) {
-    const float* f = shadow_fraction.ptr<float>(row);
-    uint8_t* m = mask.ptr<uint8_t>(row);
-    for (int col = 0; col < mask.cols; ++col)
-      if (std::isfinite(f[col]) && f[col] > thresholds.max_shadow_fraction) m[col] = kUnknown;
-  }
-  return mask;
-}
-
-cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
                    const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds) {
-  cv::Mat mask = hazardMask(slope_deg, roughness_m, shadow_fraction, thresholds);
-  if (shading_slope_deg.empty()) return mask;
-  if (shading_slope_deg.type() != CV_32FC1 || shading_slope_deg.size() != mask.size())
-    throw std::invalid_argument("hazardMask: the shading slope must be a CV_32F layer of the slope's size");
+  cv::Mat mask = hazardMask(slope_deg, roughness_m, thresholds);
+  for (const auto& [layer, name] :
+       {std::pair<const cv::Mat&, const char*>{shadow_fraction, "shadow fraction"},
+        std::pair<const cv::Mat&, const char*>{shading_slope_deg, "shading slope"}})
+    if (!layer.empty() && (layer.type() != CV_32FC1 || layer.size() != mask.size()))
+      throw std::invalid_argument(std::string("hazardMask: the ") + name +
+                                  " must be a CV_32F layer of the slope's size");
   for (int row = 0; row < mask.rows; ++row) {
-    const float* s = shading_slope_deg.ptr<float>(row);
+    const float* f = shadow_fraction.empty() ? nullptr : shadow_fraction.ptr<float>(row);
+    const float* s = shading_slope_deg.empty() ? nullptr : shading_slope_deg.ptr<float>(row);
     uint8_t* m = mask.ptr<uint8_t>(row);
-    for (int col = 0; col < mask.cols; ++col)
-      if (m[col] == kSafe && std::isfinite(s[col]) && s[col] > thresholds.max_shading_slope_deg)
+    for (int col = 0; col < mask.cols; ++col) {
+      // Seen in shadow: relief unseen, unknown whatever else says. Else shading relief above the limit: a
+      // hazard.
+      if (f && std::isfinite(f[col]) && f[col] > thresholds.max_shadow_fraction)
+        m[col] = kUnknown;
+      else if (s && m[col] == kSafe && std::isfinite(s[col]) && s[col] > thresholds.max_shading_slope_deg)
         m[col] = kHazard;
+    }
   }
   return mask;
 }

@@ -305,9 +305,8 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
     update.shadow_view_added = true;
   }
   const double ground_z = map_.medianGroundHeight();
-  if (shading_->active())
-    update.shading_view_added =
-        shading_->addKeyframe(kf.T_world_cam, keyframe_gray, std::isfinite(ground_z) ? ground_z : 0.0);
+  update.shading_view_added =  // false unless the Sun is given and high enough (ShadingRelief::active)
+      shading_->addKeyframe(kf.T_world_cam, keyframe_gray, std::isfinite(ground_z) ? ground_z : 0.0);
   if (!config_.densify) return update;
   MapEvents dense;
   dense.points_added = densifier_->addKeyframe(kf.timestamp_s, kf.T_world_cam, keyframe_gray,

@@ -31,12 +31,10 @@ enum HazardCell : uint8_t { kSafe = 0, kHazard = 1, kUnknown = 255 };
 /// CV_8U of the size of the layers (CV_32F, NaN = unknown): kSafe, kHazard or kUnknown per cell. Throws
 /// std::invalid_argument on layers of different sizes or types.
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const HazardThresholds& thresholds);
-/// The same, and a cell whose `shadow_fraction` (CV_32F, NaN = not seen at the resolution; empty = no
-/// layer) exceeds thresholds.max_shadow_fraction is unknown (its relief unseen).
-cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
-                   const HazardThresholds& thresholds);
-/// The same, and a known cell whose `shading_slope_deg` (CV_32F, NaN = not measured; empty = no layer)
-/// exceeds thresholds.max_shading_slope_deg is a hazard (unless unknown by the shadows).
+/// The same with the layers from the keyframe images (CV_32F of the same size, NaN = not measured; an
+/// empty Mat = no such layer): a cell whose `shadow_fraction` exceeds thresholds.max_shadow_fraction is
+/// unknown (its relief unseen), whatever its other layers say; otherwise a known cell whose
+/// `shading_slope_deg` exceeds thresholds.max_shading_slope_deg is a hazard.
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
                    const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds);
 

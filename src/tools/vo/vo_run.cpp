@@ -76,7 +76,6 @@ struct Options {
   bool realtime = false;    ///< feed the frames at the dataset's own rate instead of back to back
 };
 
-/// A finite number >= lo from text; false when malformed.
 /// The Sun's elevation (deg) in a rendered dataset's sequence.yaml (`sun: elevation_deg`), the ephemeris a
 /// mission would have for its landing; 0 when absent or not readable (real data).
 double datasetSunElevationDeg(const std::string& sequence_yaml) {
@@ -84,13 +83,14 @@ double datasetSunElevationDeg(const std::string& sequence_yaml) {
     const YAML::Node root = YAML::Load(sequence_yaml);
     if (root && root.IsMap() && root["sun"] && root["sun"]["elevation_deg"]) {
       const double v = root["sun"]["elevation_deg"].as<double>();
-      if (v > 0.0 && v <= 89.0) return v;
+      if (v > 0.0) return v;  // the range is the shading config's to check
     }
   } catch (const YAML::Exception&) {
   }
   return 0.0;
 }
 
+/// A finite number >= lo from text; false when malformed.
 bool parseAtLeast(const std::string& text, double lo, double* out) {
   char* end = nullptr;
   *out = std::strtod(text.c_str(), &end);
@@ -218,15 +218,14 @@ bool parseArgs(int argc, char** argv, Options* options) {
     } else if (arg == "--hazard-config") {
       if (!value(&options->hazard_config_path)) return false;
     } else if (arg == "--sun-elevation-deg") {
+      // >= 0 here; the upper limit is the shading config's (terrain/shading_relief.h), checked when the
+      // hazard mapper is built.
       std::string text;
       if (!value(&text)) return false;
-      char* end = nullptr;
-      const double v = std::strtod(text.c_str(), &end);
-      if (end == text.c_str() || *end != '\0' || !(v >= 0.0 && v <= 89.0)) {
-        std::cerr << "vo_run: --sun-elevation-deg needs a number in [0, 89], got '" << text << "'\n";
+      if (!parseAtLeast(text, 0.0, &options->sun_elevation_deg)) {
+        std::cerr << "vo_run: --sun-elevation-deg needs a number >= 0, got '" << text << "'\n";
         return false;
       }
-      options->sun_elevation_deg = v;
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
     } else if (arg == "--initial-pose-only") {

@@ -178,7 +178,8 @@ TEST(LandingSites, CellsSeenInShadowAreNotSafe) {
   ASSERT_FALSE(r.sites.empty());
   EXPECT_DOUBLE_EQ(r.sites[0].x_m, -10.0);
   // The hazard mask has the shadow unknown.
-  const cv::Mat mask = hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], shadow, HazardThresholds());
+  const cv::Mat mask =
+      hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], shadow, cv::Mat(), HazardThresholds());
   int col = 0, row = 0;
   ASSERT_TRUE(g.geometry.cellAt(-10.0, 0.5, &col, &row));
   EXPECT_EQ(mask.at<uint8_t>(row, col), kUnknown);

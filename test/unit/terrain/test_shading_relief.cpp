@@ -124,7 +124,7 @@ TEST(ShadingRelief, TheWashboardIsAHazardOnlyWithTheShadingLayer) {
   // What the plane fit over the footprint sees of a 4 m washboard 0.09 m high: level and smooth.
   const cv::Mat slope = g.newLayer(1.0f), roughness = g.newLayer(0.05f);
   HazardThresholds t;
-  const cv::Mat without = hazardMask(slope, roughness, cv::Mat(), t);
+  const cv::Mat without = hazardMask(slope, roughness, cv::Mat(), cv::Mat(), t);
   const cv::Mat with = hazardMask(slope, roughness, cv::Mat(), shading, t);
   int wash_hazard_without = 0, wash_hazard_with = 0, wash = 0, level_hazard_with = 0;
   for (int r = 0; r < g.rows; ++r)
