@@ -26,7 +26,11 @@ table and a summary; --json writes every trial; with --runs, OUT/summary.md and 
 
   scripts/hazard_campaign.py --datasets DIR [DIR ...] [--out output/hazard_campaign] [common options]
   scripts/hazard_campaign.py --runs 50 [--seed 1] [--sequences approach_down,approach_30deg,approach_nozzle]
-                             [--size 1024] [--start-s 40] [--sensors flight] [--jobs 2] [--keep-images] [common]
+                             [--size 1024] [--start-s 40] [--sensors flight] [--jobs 2] [--keep-images]
+                             [--renders-from CAMPAIGN] [common]
+  --renders-from: the navigation and the hazard map run again on the renders of an earlier campaign of the same
+  draws (one run with --keep-images), e.g. to measure a change of the code or of --hazard-config on the same images;
+  each run's draw must equal the earlier one's.
   common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
           [--max-shading-slope-deg S]
           [--reuse] [--json FILE] [--write-docs DIR]
@@ -154,7 +158,16 @@ def execute_run(p, a, targets):
               "--sensor-seed", str(p["sensor_seed"]), "--start", "%g" % a.start_s,
               "--threads", str(a.render_threads), "--no-progress"]
     try:
-        if not (a.reuse and os.path.exists(os.path.join(work, "terrain", "terrain.yaml"))):
+        if a.renders_from:
+            dataset = os.path.join(a.renders_from, "runs", p["id"], "dataset")
+            try:
+                with open(os.path.join(a.renders_from, "runs", p["id"], "result.json")) as f:
+                    earlier = json.load(f)["params"]
+            except (OSError, ValueError, KeyError):
+                earlier = None
+            if earlier != json.loads(json.dumps(p)) or not os.path.isdir(os.path.join(dataset, "images")):
+                raise ToolFailed("%s: the run in %s is another draw or kept no images" % (p["id"], a.renders_from))
+        elif not (a.reuse and os.path.exists(os.path.join(work, "terrain", "terrain.yaml"))):
             run(render, os.path.join(work, "render.log"))
         vo_extra = ["--initial-error-m", ",".join("%g" % v for v in p["initial_position_error_m"]),
                     "--initial-error-deg", ",".join("%g" % v for v in p["initial_attitude_error_deg"])]
@@ -162,7 +175,7 @@ def execute_run(p, a, targets):
             dataset, work, p["id"], a, targets, vo_extra)
     except ToolFailed as e:
         result["status"], result["reason"] = "failed", str(e)
-    if not a.keep_images and os.path.isdir(os.path.join(dataset, "images")):
+    if not a.keep_images and not a.renders_from and os.path.isdir(os.path.join(dataset, "images")):
         shutil.rmtree(os.path.join(dataset, "images"), ignore_errors=True)
     result["seconds"] = round(time.time() - t0, 1)
     with open(os.path.join(work, "result.json"), "w") as f:
@@ -298,6 +311,8 @@ def main():
     g.add_argument("--jobs", type=int, default=max(1, len(os.sched_getaffinity(0))))
     g.add_argument("--render-threads", type=int, default=1)
     g.add_argument("--keep-images", action="store_true", help="keep each run's images (about 220 MB at 1024 px)")
+    g.add_argument("--renders-from", default="", metavar="CAMPAIGN",
+                   help="no rendering: the datasets of this earlier campaign of the same draws (run with --keep-images)")
     a = ap.parse_args()
     a.target_list = DEFAULT_TARGETS
     if a.targets:

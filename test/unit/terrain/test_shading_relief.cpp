@@ -150,10 +150,10 @@ TEST(ShadingRelief, WithoutTheSunUnderALowSunOrFromTooHighNothingIsKeptAndNothin
   ShadingRelief no_sun(camera());  // sun_elevation_deg 0: not given
   EXPECT_FALSE(no_sun.active());
   ShadingReliefConfig low;
-  low.sun_elevation_deg = 12.0;  // below min_sun_elevation_deg (15): the shadows take over
+  low.sun_elevation_deg = 4.0;  // below min_sun_elevation_deg (5): the shadows alone
   EXPECT_FALSE(ShadingRelief(camera(), low).active());
   EXPECT_FALSE(ShadingRelief(camera(), low).addKeyframe(T, image, 0.0));
-  low.min_sun_elevation_deg = 10.0;
+  low.min_sun_elevation_deg = 3.0;
   EXPECT_TRUE(ShadingRelief(camera(), low).active());
   EXPECT_FALSE(no_sun.addKeyframe(T, image, 0.0));
   EXPECT_EQ(cv::countNonZero(no_sun.slopeRms(g, g.newLayer(0.0f), 4.0) ==
