@@ -314,6 +314,17 @@ def main():
     g.add_argument("--renders-from", default="", metavar="CAMPAIGN",
                    help="no rendering: the datasets of this earlier campaign of the same draws (run with --keep-images)")
     a = ap.parse_args()
+    if a.renders_from and a.runs:
+        # The renders must be of the same size, sensors and start as this campaign would render.
+        try:
+            with open(os.path.join(a.renders_from, "plan.json")) as f:
+                earlier = ap.parse_args(json.load(f)["argv"])
+        except (OSError, ValueError, KeyError, SystemExit):
+            sys.exit("hazard_campaign: --renders-from %s: no readable plan.json" % a.renders_from)
+        for key in ("size", "sensors", "start_s"):
+            if getattr(earlier, key) != getattr(a, key):
+                sys.exit("hazard_campaign: --renders-from %s was rendered with --%s %s, not %s" % (
+                    a.renders_from, key.replace("_", "-"), getattr(earlier, key), getattr(a, key)))
     a.target_list = DEFAULT_TARGETS
     if a.targets:
         a.target_list = [tuple(float(v) for v in t.split(",")) for t in a.targets.split(";") if t.strip()]
