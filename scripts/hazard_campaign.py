@@ -78,6 +78,17 @@ def say(text):
         sys.stdout.flush()
 
 
+def read_plan(ap, folder):
+    """An earlier campaign's plan.json: (the plan, {"argv", "runs"}; its command line parsed by `ap`). Exits with a
+    message when the file is missing or malformed."""
+    try:
+        with open(os.path.join(folder, "plan.json")) as f:
+            plan = json.load(f)
+        return plan, ap.parse_args(plan["argv"])
+    except (OSError, ValueError, KeyError, SystemExit):
+        sys.exit("hazard_campaign: %s has no readable plan.json" % folder)
+
+
 def evaluate(dataset, work, name, a, targets, vo_extra=()):
     """The navigation run with the hazard map on one dataset, then one terrain_eval per target: (trials, map
     scores at the map's resolution and as sampled, the confidence k in force)."""
@@ -316,11 +327,7 @@ def main():
     a = ap.parse_args()
     if a.renders_from and a.runs:
         # The renders must be of the same size, sensors and start as this campaign would render.
-        try:
-            with open(os.path.join(a.renders_from, "plan.json")) as f:
-                earlier = ap.parse_args(json.load(f)["argv"])
-        except (OSError, ValueError, KeyError, SystemExit):
-            sys.exit("hazard_campaign: --renders-from %s: no readable plan.json" % a.renders_from)
+        _, earlier = read_plan(ap, a.renders_from)
         for key in ("size", "sensors", "start_s"):
             if getattr(earlier, key) != getattr(a, key):
                 sys.exit("hazard_campaign: --renders-from %s was rendered with --%s %s, not %s" % (
@@ -356,7 +363,7 @@ def main():
         return 1 if unsafe else 0
 
     if a.gather:
-        plan = json.load(open(os.path.join(a.out, "plan.json")))
+        plan, campaign = read_plan(ap, a.out)
         results = []
         for p in plan["runs"]:
             path = os.path.join(a.out, "runs", p["id"], "result.json")
@@ -364,7 +371,6 @@ def main():
                 results.append(json.load(open(path)))
         k = next((r.get("confidence_k") for r in results if r.get("confidence_k") is not None), None)
         # The conditions are those of the campaign's own command line.
-        campaign = ap.parse_args(plan["argv"])
         for key in ("seed", "sequences", "size", "sensors", "start_s", "init_position_sigma_m",
                     "init_attitude_sigma_deg", "sun_elevation", "sun_azimuth", "placement_ranks", "config",
                     "hazard_config"):

@@ -6,12 +6,12 @@
 /// The terrain model fits a plane to the points within 4 m of a cell (terrain_map.h), so a crater 1-2 m
 /// across or a rock 0.3 m high is smoothed away; at a low Sun their shadows mark them (shadow_map.h), but
 /// not all of them, and at a Sun above about 15 deg they cast almost none (session 11's campaign: every
-/// unsafe site was there). Their
-/// facets still shade: with the Sun at elevation e over level ground, a facet tilted by a small angle s
-/// toward or away from the Sun changes the brightness by a fraction of about s / tan(e) (Lambert; the
-/// Lunar-Lambert law of the Moon's regolith behaves alike at the phase angles of a descent), while the
-/// albedo of the regolith varies over tens of metres, not over one. So the relative brightness between
-/// two scales of relief, times tan(e), measures the slopes of that relief in radians.
+/// unsafe site was there). Their facets still shade: with the Sun at elevation e over level ground, a
+/// facet tilted by a small angle s toward or away from the Sun changes the brightness by a fraction of
+/// about s / tan(e) (Lambert; the Lunar-Lambert law of the Moon's regolith behaves alike at the phase
+/// angles of a descent), while the albedo of the regolith varies over tens of metres, not over one. So the
+/// relative brightness between two scales of relief, times tan(e), measures the slopes of that relief in
+/// radians.
 ///
 /// Per keyframe (addKeyframe): the image is reduced so that band_min_m spans at least 2 pixels, blurred at
 /// band_min_m and band_max_m (Gaussian sigmas, in metres of ground at the image centre), and the squared
@@ -49,8 +49,8 @@ struct ShadingReliefConfig {
   /// shadow (the linear law above needs the Sun well above them) and the shadow map alone marks the relief.
   /// 5 deg, the lowest Sun of the campaigns: on the 12 maps of the seed-2 campaign with a Sun of 5-15 deg
   /// the shading flagged 4-31 % of the truly safe cells (10-77 % of the hazardous ones), as many sites were
-  /// chosen as without it (43) and 2 of them were unsafe against 4; on a held-out low-Sun campaign (seed 3)
-  /// 1 of 29 against 3 of 31 (session 14, docs/terrain/README.md). The cost is precision.
+  /// chosen as without it (43) and 2 of them were unsafe against 4; on two held-out low-Sun campaigns (seeds
+  /// 3 and 4, 21 runs) 3 of 61 against 9 of 63 (session 14, docs/terrain/README.md). The cost is precision.
   /// Until then it was 15 deg, set when the three benchmark renders at 12 deg had 29-33 % of their truly
   /// safe cells flagged (17-20 % at 42 deg, session 12).
   double min_sun_elevation_deg = 5.0;
