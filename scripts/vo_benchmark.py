@@ -128,8 +128,8 @@ def count_lines(path):
 
 
 # The stages vo_run times per frame (FrameResult::times, frame_result.h), in its order; pyramid, klt, refine and
-# detect are parts of tracking.
-STAGES = ["tracking", "pyramid", "klt", "refine", "detect", "motion", "mapping", "ba", "pose", "total"]
+# detect are parts of tracking. optimiser is per adjustment, not per frame: the bundle adjustment's own solve.
+STAGES = ["tracking", "pyramid", "klt", "refine", "detect", "motion", "mapping", "ba", "pose", "total", "optimiser"]
 
 
 def parse_vo_run_log(path):
@@ -145,7 +145,7 @@ def parse_vo_run_log(path):
             if m:
                 found["tracking"], found["lost"], found["recovered"] = (int(m.group(2)), int(m.group(3)),
                                                                         int(m.group(4)))
-            m = re.match(r"\s*(%s)\s+([0-9.]+)\s+([0-9.]+)\s*$" % "|".join(STAGES), line)
+            m = re.match(r"\s*(%s)\s+([0-9.]+)\s+([0-9.]+)\s*(\(\d+ adjustments\))?\s*$" % "|".join(STAGES), line)
             if m:
                 found.setdefault("stage_ms", {})[m.group(1)] = (float(m.group(2)), float(m.group(3)))
                 if m.group(1) == "total":
@@ -434,7 +434,9 @@ def format_tables(results):
                   "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
                   "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
                   "including any wait for it; pose = image in, pose out: from entering process() until the pose is "
-                  "known, before the keyframe decision and mapping; total = the whole Pipeline::process() call). "
+                  "known, before the keyframe decision and mapping; total = the whole Pipeline::process() call; optimiser "
+                  "= per adjustment, not per frame: the bundle adjustment's own solve, in its thread when "
+                  "asynchronous, which shares the CPU with the tracking). "
                   "Wall clock on this "
                   f"machine (nproc {os.cpu_count()}), other jobs not excluded:", "",
                   "| sequence | image | sensors | config | " + " | ".join(STAGES) + " |",

@@ -16,6 +16,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -31,6 +32,7 @@
 #include <Eigen/Geometry>
 
 #include "planetary_vo/fusion/inertial_factors.h"
+#include "planetary_vo/vo/reprojection_cost.h"
 
 namespace planetary_vo {
 namespace {
@@ -41,35 +43,6 @@ namespace {
 constexpr int kMaxDensePoses = 30;
 /// Initial Levenberg-Marquardt trust region of windows with inertial states (see where it is used).
 constexpr double kInertialInitialTrustRegionRadius = 1e12;
-
-/// Pixel residual of one observation: K * (R * p + t) projected, minus the measured ideal pixel.
-struct ReprojectionResidual {
-  ReprojectionResidual(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy)
-      : px_(px), fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
-
-  template <typename T>
-  bool operator()(const T* q_cam_world, const T* t_cam_world, const T* p_world, T* residual) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> q(q_cam_world);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(t_cam_world);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(p_world);
-    const Eigen::Matrix<T, 3, 1> p_cam = q * p + t;
-    // A point on or behind the image plane has no projection. Failing the evaluation makes
-    // Levenberg-Marquardt reject the step and shrink the trust region instead of following a sign flip of the
-    // depth.
-    if (!(p_cam.z() > T(0))) return false;
-    residual[0] = T(fx_) * p_cam.x() / p_cam.z() + T(cx_) - T(px_.x());
-    residual[1] = T(fy_) * p_cam.y() / p_cam.z() + T(cy_) - T(px_.y());
-    return true;
-  }
-
-  static ceres::CostFunction* create(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy) {
-    return new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 4, 3, 3>(
-        new ReprojectionResidual(px, fx, fy, cx, cy));
-  }
-
-  Eigen::Vector2d px_;
-  double fx_, fy_, cx_, cy_;
-};
 
 /// The altimeter range residual of a keyframe against the terrain plane under its beam, tied to the map: the
 /// plane keeps the normal of its fit but passes through the mean of its support points (plus the constant
@@ -308,6 +281,15 @@ std::unique_ptr<ceres::LossFunction> makeLoss(const BundleAdjustmentConfig& conf
   return nullptr;  // plain squared error
 }
 
+/// Pixel error of one observation (no Jacobian): the residual of ReprojectionCost (vo/reprojection_cost.h),
+/// which the solve uses. Returns false for a point on or behind the image plane.
+bool reprojectionResidual(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy,
+                          const PoseBlock& pose, const Eigen::Vector3d& p_world, Eigen::Vector2d* residual) {
+  const ReprojectionCost cost(px, fx, fy, cx, cy);
+  const double* parameters[3] = {pose.q.data(), pose.t.data(), p_world.data()};
+  return cost.Evaluate(parameters, residual->data(), nullptr);
+}
+
 /// Error in px of every observation of `problem` (negative: point not in front of the camera).
 std::vector<double> reprojectionErrors(const BaProblem& problem, const std::vector<size_t>& obs_keyframe,
                                        const std::vector<size_t>& obs_point) {
@@ -317,10 +299,10 @@ std::vector<double> reprojectionErrors(const BaProblem& problem, const std::vect
   for (size_t i = 0; i < problem.observations.size(); ++i) {
     const PoseBlock& pose = poses[obs_keyframe[i]];
     const Eigen::Vector3d& p = problem.points[obs_point[i]].p_world;
-    const ReprojectionResidual residual(problem.observations[i].px, problem.fx, problem.fy, problem.cx,
-                                        problem.cy);
     Eigen::Vector2d r;
-    if (residual(pose.q.data(), pose.t.data(), p.data(), r.data())) errors[i] = r.norm();
+    if (reprojectionResidual(problem.observations[i].px, problem.fx, problem.fy, problem.cx, problem.cy, pose,
+                             p, &r))
+      errors[i] = r.norm();
   }
   return errors;
 }
@@ -353,11 +335,19 @@ double elapsedMs(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// CPU time of the calling thread, in ms (what a solve costs, whatever else shares the core).
+double threadCpuMs() {
+  timespec ts{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
 /// adjustBundle() with an optional abort flag; `num_residuals` (optional) receives how many observations took
 /// part in the solve.
 BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
                       const std::atomic<bool>* abort, size_t* num_residuals) {
   const auto start = std::chrono::steady_clock::now();
+  const double start_cpu_ms = threadCpuMs();
   if (problem == nullptr) throw std::invalid_argument("bundle adjustment: null problem");
   validateConfig(config);
   const size_t num_obs = problem->observations.size();
@@ -421,9 +411,9 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
     if (initial_errors[i] < 0.0) continue;  // behind the camera: reported as outlier below
     // A residual with nothing free only adds a constant to the cost.
     if (problem->keyframes[k].fixed && pointConstant(j)) continue;
-    ceres_problem.AddResidualBlock(ReprojectionResidual::create(problem->observations[i].px, problem->fx,
-                                                                problem->fy, problem->cx, problem->cy),
-                                   loss.get(), poses[k].q.data(), poses[k].t.data(), points[j].data());
+    ceres_problem.AddResidualBlock(
+        new ReprojectionCost(problem->observations[i].px, problem->fx, problem->fy, problem->cx, problem->cy),
+        loss.get(), poses[k].q.data(), poses[k].t.data(), points[j].data());
     pose_used[k] = point_used[j] = 1;
     ++residuals;
   }
@@ -736,6 +726,7 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
       summary.outliers.push_back(problem->observations[i]);
   }
   summary.solve_ms = elapsedMs(start);
+  summary.solve_cpu_ms = threadCpuMs() - start_cpu_ms;
   return summary;
 }
 

@@ -872,6 +872,7 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
     return;
   }
   const BaSummary summary = adjustBundle(&problem, config_.bundle_adjustment);
+  result->times.optimiser_ms = summary.solve_cpu_ms;
   if (summary.converged) {
     const int removed = map_.applyBaResult(problem, summary.outliers);
     // The current frame is the newest keyframe: report its adjusted pose.
@@ -930,6 +931,7 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
                        "): result discarded";
     return;
   }
+  if (finished) result->times.optimiser_ms = finished->second.solve_cpu_ms;
   if (!finished || !finished->second.converged) return;
   map_.applyBaResult(finished->first, finished->second.outliers);
   result->times.ba_ms += msSince(start);

@@ -8,14 +8,14 @@
 /// Poses are T_cam_world (world -> camera, the form the reprojection residual needs); observations are IDEAL
 /// (undistorted) pixels of a pinhole camera with intrinsics K.
 ///
-/// Factors: one reprojection residual per observation (robust loss of the config); for a metric map of the
-/// camera + IMU mode, per BaImuConstraint a preintegrated IMU factor and a bias random walk between the two
-/// keyframes' states (velocity, biases; the pose of T_cam_world converted to the IMU body pose inside the
-/// factor), and the bias priors; for a metric map of the vision + altimeter mode, one altimeter range
-/// residual per BaRangeObservation (the keyframe's measured
-/// slant range against the range from its pose to the terrain plane fitted to the map, which moves with its
-/// support points; fusion/altimeter_range.h, Cauchy loss at 2.5 sigma). The range factors make the scale
-/// observable, so the caller may then fix only the oldest keyframe (the gauge policy is the caller's: see
+/// Factors: one reprojection residual per observation (vo/reprojection_cost.h, analytic Jacobians; robust
+/// loss of the config); for a metric map of the camera + IMU mode, per BaImuConstraint a preintegrated IMU
+/// factor and a bias random walk between the two keyframes' states (velocity, biases; the pose of T_cam_world
+/// converted to the IMU body pose inside the factor), and the bias priors; for a metric map of the vision +
+/// altimeter mode, one altimeter range residual per BaRangeObservation (the keyframe's measured slant range
+/// against the range from its pose to the terrain plane fitted to the map, which moves with its support
+/// points; fusion/altimeter_range.h, Cauchy loss at 2.5 sigma). The range factors make the scale observable,
+/// so the caller may then fix only the oldest keyframe (the gauge policy is the caller's: see
 /// Pipeline::runBundleAdjustment).
 ///
 /// Contract of adjustBundle() / refinePose() (bundle_adjuster.cpp):
@@ -113,8 +113,8 @@ struct BaImuConstraint {
 struct BaBiasPrior {
   uint64_t keyframe_id = 0;
   ImuBias mean;
-  double gyro_sigma_radps = 0.0;   ///< > 0
-  double accel_sigma_mps2 = 0.0;   ///< > 0
+  double gyro_sigma_radps = 0.0;  ///< > 0
+  double accel_sigma_mps2 = 0.0;  ///< > 0
 };
 
 /// The inertial part of a window (empty states: vision only). Gravity makes the world's roll and pitch and
@@ -149,6 +149,7 @@ struct BaSummary {
   double initial_rms_px = 0.0;  ///< RMS reprojection error over all observations before
   double final_rms_px = 0.0;    ///< and after the adjustment
   double solve_ms = 0.0;        ///< wall time of the whole call (set-up, solve, evaluation)
+  double solve_cpu_ms = 0.0;    ///< CPU time of the calling thread over the same call
   int range_factors = 0;        ///< altimeter range residuals that took part (their keyframe free)
   int imu_factors = 0;          ///< preintegrated IMU factors that took part
   double covariance_ms = 0.0;   ///< time of the covariance (BaInertial::compute_covariance)
@@ -176,9 +177,9 @@ BaSummary refinePose(Pose* T_cam_world, const std::vector<Eigen::Vector3d>& p_wo
 /// submits at a keyframe and collects with waitIdle() + takeResult() after the next image's KLT, so the
 /// solve overlaps that tracking and its result always lands at the same frame.
 /// At most one problem is in flight; submitting while busy replaces the queued (not yet started) problem.
-/// A problem that asks for the covariance (BaInertial::compute_covariance) is solved without it first, so that
-/// takeResult() does not wait for it; the worker then computes the covariance of the solution and keeps it
-/// for takeCovariance(), which waits for it (call it at the next keyframe: by then it is long done in real
+/// A problem that asks for the covariance (BaInertial::compute_covariance) is solved without it first, so
+/// that takeResult() does not wait for it; the worker then computes the covariance of the solution and keeps
+/// it for takeCovariance(), which waits for it (call it at the next keyframe: by then it is long done in real
 /// time, and it lands at the same keyframe on every run).
 /// Threading: submit() and takeResult() may be called from the tracking thread; the worker only touches its
 /// own copy of the problem. A solve that failed with an exception (bad input, see above) is rethrown by the

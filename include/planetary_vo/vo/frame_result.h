@@ -59,7 +59,12 @@ struct StageTimesMs {
       0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
   double ba_ms = 0.0;       ///< synchronous bundle adjustment, or applying an asynchronous result
-  double total_ms = 0.0;    ///< the whole process() call
+  /// The bundle adjustment's own CPU time (BaSummary::solve_cpu_ms) of the adjustment this frame ran or
+  /// applied: in the optimiser thread when asynchronous (not part of this frame's other times, except as far
+  /// as the frame waited for it); 0 on frames without one. CPU, not wall time: a background solve sharing
+  /// the core with the tracking and the image loading takes longer on the clock.
+  double optimiser_ms = 0.0;
+  double total_ms = 0.0;  ///< the whole process() call
   /// Image in, pose out: from entering process() until this frame's pose is known (input checks, tracking,
   /// applying the background bundle adjustment or waiting for it, motion). Tracking against the map: before
   /// the keyframe decision and mapping, which follow within the same call; otherwise the whole call.
