@@ -344,9 +344,15 @@ TEST(VoRun, RealtimeFeedsTheFramesAtTheirRateAndKeepsTheTrajectory) {
   std::printf("vo_run: %zu frames spanning %.2f s took %.2f s with --realtime, %.2f s back to back\n",
               times.size(), span_s, wall_s, back_to_back_s);
   EXPECT_GE(wall_s, span_s);
-  // The frames' processing overlaps the waits, so the difference is the span less a little (back to back
-  // takes well under the span here: it would pass the first check alone).
-  EXPECT_GE(wall_s - back_to_back_s, 0.5 * span_s);
+  // The frames' processing overlaps the waits, so the difference is the span less a little. That tells the
+  // waits from the processing only where back to back takes well under the span (the normal build: about
+  // 0.3 s of 0.7 s); in the sanitizer build on a loaded 2-core machine back to back took 1.12 s, longer than
+  // the span, and a run that never waited would pass too. There only the lower bound above is checked.
+  if (back_to_back_s < 0.5 * span_s) {
+    EXPECT_GE(wall_s - back_to_back_s, 0.5 * span_s);
+  } else {
+    std::printf("vo_run: back to back took longer than half the span: only the lower bound is checked\n");
+  }
   EXPECT_FALSE(readFile(out + "/realtime.txt").empty());
   EXPECT_EQ(readFile(out + "/realtime.txt"), readFile(out + "/back_to_back.txt"));
 }
