@@ -434,9 +434,9 @@ def format_tables(results):
                   "motion-only refinement; mapping = keyframe insertion, triangulation, culling; ba = synchronous "
                   "bundle adjustment, or handing the window to the optimiser thread and applying its result, "
                   "including any wait for it; pose = image in, pose out: from entering process() until the pose is "
-                  "known, before the keyframe decision and mapping; total = the whole Pipeline::process() call; optimiser "
-                  "= per adjustment, not per frame: the bundle adjustment's own solve, in its thread when "
-                  "asynchronous, which shares the CPU with the tracking). "
+                  "known, before the keyframe decision and mapping; total = the whole Pipeline::process() call; "
+                  "optimiser = per adjustment, not per frame: the bundle adjustment's CPU time in its thread, which "
+                  "shares the CPU with the tracking; the others are wall clock). "
                   "Wall clock on this "
                   f"machine (nproc {os.cpu_count()}), other jobs not excluded:", "",
                   "| sequence | image | sensors | config | " + " | ".join(STAGES) + " |",
