@@ -281,15 +281,6 @@ std::unique_ptr<ceres::LossFunction> makeLoss(const BundleAdjustmentConfig& conf
   return nullptr;  // plain squared error
 }
 
-/// Pixel error of one observation (no Jacobian): the residual of ReprojectionCost (vo/reprojection_cost.h),
-/// which the solve uses. Returns false for a point on or behind the image plane.
-bool reprojectionResidual(const Eigen::Vector2d& px, double fx, double fy, double cx, double cy,
-                          const PoseBlock& pose, const Eigen::Vector3d& p_world, Eigen::Vector2d* residual) {
-  const ReprojectionCost cost(px, fx, fy, cx, cy);
-  const double* parameters[3] = {pose.q.data(), pose.t.data(), p_world.data()};
-  return cost.Evaluate(parameters, residual->data(), nullptr);
-}
-
 /// Error in px of every observation of `problem` (negative: point not in front of the camera).
 std::vector<double> reprojectionErrors(const BaProblem& problem, const std::vector<size_t>& obs_keyframe,
                                        const std::vector<size_t>& obs_point) {
@@ -299,10 +290,11 @@ std::vector<double> reprojectionErrors(const BaProblem& problem, const std::vect
   for (size_t i = 0; i < problem.observations.size(); ++i) {
     const PoseBlock& pose = poses[obs_keyframe[i]];
     const Eigen::Vector3d& p = problem.points[obs_point[i]].p_world;
+    // The residual the solve uses (vo/reprojection_cost.h), without its Jacobians.
+    const ReprojectionCost cost(problem.observations[i].px, problem.fx, problem.fy, problem.cx, problem.cy);
+    const double* parameters[3] = {pose.q.data(), pose.t.data(), p.data()};
     Eigen::Vector2d r;
-    if (reprojectionResidual(problem.observations[i].px, problem.fx, problem.fy, problem.cx, problem.cy, pose,
-                             p, &r))
-      errors[i] = r.norm();
+    if (cost.Evaluate(parameters, r.data(), nullptr)) errors[i] = r.norm();
   }
   return errors;
 }

@@ -7,6 +7,7 @@
 /// compared on a quiet core without the noise of a whole run.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>

@@ -354,8 +354,7 @@ int main(int argc, char** argv) {
       frame_log.open(options.frame_log_path);
       if (!frame_log) throw std::runtime_error("cannot write " + options.frame_log_path);
       frame_log << "# frame timestamp_s state tracked new inliers map_points keyframe model total_ms pose_ms "
-                   "tracking_ms "
-                   "detect_ms ba_ms optimiser_ms message\n";
+                   "tracking_ms detect_ms ba_ms optimiser_ms message\n";
     }
     std::optional<terrain::HazardMapper> hazard_mapper;
     terrain::DensifierStats densified;
