@@ -259,8 +259,17 @@ std::vector<cv::KeyPoint> GridDetector::detect(const cv::Mat& gray,
   // Pass 2: hand out what is left of the budget (the rounding remainder and the shares of corner-poor cells)
   // one feature per cell per round, the cell with the strongest next corner first. Without redistribution
   // only one round runs, so no cell exceeds ceil(num_features / cells).
+  // Replenishment redistributes only towards the total budget: once the tracks already in the image and the
+  // new features reach num_features, a corner-poor active cell's share is not handed to textured cells again.
+  // Otherwise a textureless patch that stays in view donates its share at every detection, and the textured
+  // cells that received it stay dense as they move across the image (main_brake_down 1024: 900 tracks for a
+  // budget of 300, three times the tracking time). A full detection (no existing features) is not affected.
+  int existing_total = 0;
+  for (const int n : stats_.existing_per_cell) existing_total += n;
+  const int pass2_target = std::min(
+      stats_.budget, std::max(static_cast<int>(result.size()), config_.num_features - existing_total));
   std::vector<int> open_cells;
-  for (int round = 0; static_cast<int>(result.size()) < stats_.budget; ++round) {
+  for (int round = 0; static_cast<int>(result.size()) < pass2_target; ++round) {
     if (round > 0 && !config_.redistribute_budget) break;
     open_cells.clear();
     for (int c = 0; c < n_cells; ++c)
@@ -271,7 +280,7 @@ std::vector<cv::KeyPoint> GridDetector::detect(const cv::Mat& gray,
       return strongerFirst(candidates_[a][next_candidate_[a]], candidates_[b][next_candidate_[b]]);
     });
     for (int c : open_cells) {
-      if (static_cast<int>(result.size()) >= stats_.budget) break;
+      if (static_cast<int>(result.size()) >= pass2_target) break;
       if (takeNext(c)) ++stats_.redistributed;
     }
   }

@@ -37,7 +37,9 @@ struct DetectionStats {
 /// score), keeping min_distance_px from every feature already accepted or given as existing. The rest of the
 /// budget is then handed out one feature per cell per round, cells with the strongest next corner first, to
 /// cells that still have corners; so textureless cells donate their share and no textured cell gets more than
-/// one feature above the others that could still take one.
+/// one feature above the others that could still take one. In replenishment (existing features given) the
+/// handing out stops once the existing and new features reach num_features: a corner-poor cell that stays
+/// empty does not give its share to the textured cells again at every detection.
 ///
 /// Corners come from all num_levels pyramid levels (scale_factor apart, as ORB) and are reported at full
 /// resolution with `octave` = level and `size` = patch_size_px * scale, so ORB descriptors can be computed

@@ -194,6 +194,45 @@ TEST(GridDetector, ReplenishmentDetectsOnlyInEmptyCellsAndKeepsClearOfExistingFe
   EXPECT_EQ(d.lastStats().active_cells, 0);
 }
 
+TEST(GridDetector, ReplenishmentRedistributesOnlyUpToTheTotalBudget) {
+  // Left half flat: columns 0-2 (24 cells; column 3 has the step edge's corners) are empty at every
+  // replenishment and have no corner to give. Repeated
+  // detections must not hand their share to the textured cells again and again (the tracks would pile up in
+  // the cells that received it): the redistribution stops where existing + new features reach num_features.
+  cv::Mat img = texture(kSize, 9);
+  img(cv::Rect(0, 0, kSize.width / 2, kSize.height)).setTo(128);
+  const DetectorConfig cfg;
+  GridDetector d(cfg);
+  const std::vector<cv::KeyPoint> full = d.detect(img);
+  ASSERT_EQ(static_cast<int>(full.size()), cfg.num_features) << "precondition: the textured half takes it all";
+
+  // Empty four textured cells of the right half.
+  const std::vector<int> emptied = {5, 22, 39, 63};
+  std::vector<cv::Point2f> existing;
+  for (const cv::KeyPoint& kp : full)
+    if (std::find(emptied.begin(), emptied.end(), d.cellIndex(kp.pt, kSize)) == emptied.end())
+      existing.push_back(kp.pt);
+  const int deficit = cfg.num_features - static_cast<int>(existing.size());
+  ASSERT_GT(deficit, 4 * 4) << "precondition: the emptied cells held more than their share";
+
+  // Below the total budget: the emptied cells are refilled up to it, not beyond.
+  std::vector<cv::KeyPoint> added = d.detect(img, existing);
+  ASSERT_GE(d.lastStats().active_cells, 24 + 4);
+  // The budget of the active cells (28 of 64 cells' share) is far larger than the deficit.
+  ASSERT_GT(d.lastStats().budget, 2 * deficit);
+  EXPECT_EQ(static_cast<int>(added.size()), deficit);
+  std::vector<int> counts = countPerCell(d, added, kSize);
+  for (int c : emptied) EXPECT_GE(counts[c], 4) << "emptied cell " << c << " not refilled";
+
+  // At or above the total budget: each emptied cell gets its own share (300 / 64 = 4), nothing more.
+  std::vector<cv::Point2f> crowded = existing;
+  for (int i = 0; i < deficit + 10; ++i) crowded.push_back(existing[i % existing.size()]);
+  added = d.detect(img, crowded);
+  counts = countPerCell(d, added, kSize);
+  for (int c : emptied) EXPECT_EQ(counts[c], 4) << "emptied cell " << c;
+  EXPECT_EQ(static_cast<int>(added.size()), 4 * 4);
+}
+
 TEST(GridDetector, CellMinFeaturesTopsUpSparseCells) {
   DetectorConfig cfg;
   cfg.grid_cols = 4;
