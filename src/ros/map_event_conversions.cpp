@@ -84,6 +84,49 @@ std::vector<MapPointState> readGroup(const ConstPointGroup& g) {
   return points;
 }
 
+void fillKeyframes(const std::vector<MapKeyframeState>& keyframes, const ros::Time& epoch,
+                   std::vector<uint64_t>* ids, std::vector<ros::Time>* stamps,
+                   std::vector<geometry_msgs::Pose>* poses) {
+  ids->resize(keyframes.size());
+  stamps->resize(keyframes.size());
+  poses->resize(keyframes.size());
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    (*ids)[i] = keyframes[i].id;
+    (*stamps)[i] = toStamp(epoch, keyframes[i].timestamp_s);
+    (*poses)[i] = toPoseMsg(keyframes[i].T_world_cam);
+  }
+}
+
+/// One keyframe group of the message (`name`: the arrays' prefix, for the errors), checked: arrays of one
+/// length, finite poses, unit quaternions.
+std::vector<MapKeyframeState> readKeyframes(const std::string& name, const std::vector<uint64_t>& ids,
+                                            const std::vector<ros::Time>& stamps,
+                                            const std::vector<geometry_msgs::Pose>& poses,
+                                            const ros::Time& epoch) {
+  const size_t k = ids.size();
+  if (stamps.size() != k || poses.size() != k)
+    fail(name + " arrays disagree: " + std::to_string(k) + " " + name + "_ids, " + std::to_string(stamps.size()) +
+         " " + name + "_stamps, " + std::to_string(poses.size()) + " " + name + "_T_world_cam");
+  std::vector<MapKeyframeState> keyframes(k);
+  for (size_t i = 0; i < k; ++i) {
+    const geometry_msgs::Pose& pose = poses[i];
+    const double values[] = {pose.position.x,    pose.position.y,    pose.position.z,   pose.orientation.x,
+                             pose.orientation.y, pose.orientation.z, pose.orientation.w};
+    for (double v : values)
+      if (!std::isfinite(v)) fail(name + " " + std::to_string(i) + ": pose not finite");
+    const double norm =
+        std::sqrt(pose.orientation.x * pose.orientation.x + pose.orientation.y * pose.orientation.y +
+                  pose.orientation.z * pose.orientation.z + pose.orientation.w * pose.orientation.w);
+    if (std::abs(norm - 1.0) > 1e-6)
+      fail(name + " " + std::to_string(i) + ": orientation is not a unit quaternion (norm " +
+           std::to_string(norm) + ")");
+    keyframes[i].id = ids[i];
+    keyframes[i].timestamp_s = toDatasetTime(epoch, stamps[i]);
+    keyframes[i].T_world_cam = fromPoseMsg(pose);
+  }
+  return keyframes;
+}
+
 }  // namespace
 
 VoMapEvents toMsg(const MapEvents& events, bool metric_scale, const std_msgs::Header& header,
@@ -94,15 +137,9 @@ VoMapEvents toMsg(const MapEvents& events, bool metric_scale, const std_msgs::He
   msg.metric_scale = metric_scale;
   msg.map_restarted = events.map_restarted;
   const size_t k = events.keyframes_added.size();
-  msg.keyframe_ids.resize(k);
-  msg.keyframe_stamps.resize(k);
-  msg.keyframe_T_world_cam.resize(k);
-  for (size_t i = 0; i < k; ++i) {
-    const MapKeyframeState& kf = events.keyframes_added[i];
-    msg.keyframe_ids[i] = kf.id;
-    msg.keyframe_stamps[i] = toStamp(epoch, kf.timestamp_s);
-    msg.keyframe_T_world_cam[i] = toPoseMsg(kf.T_world_cam);
-  }
+  fillKeyframes(events.keyframes_added, epoch, &msg.keyframe_ids, &msg.keyframe_stamps, &msg.keyframe_T_world_cam);
+  fillKeyframes(events.keyframes_retired, epoch, &msg.retired_keyframe_ids, &msg.retired_keyframe_stamps,
+                &msg.retired_keyframe_T_world_cam);
   fillGroup(events.points_added,
             {&msg.added_ids, &msg.added_positions, &msg.added_covariances, &msg.added_num_observations});
   fillGroup(events.points_updated, {&msg.updated_ids, &msg.updated_positions, &msg.updated_covariances,
@@ -123,28 +160,10 @@ MapEvents fromMsg(const VoMapEvents& msg, const ros::Time& epoch, cv::Mat* keyfr
   MapEvents events;
   events.map_restarted = msg.map_restarted;
   const size_t k = msg.keyframe_ids.size();
-  if (msg.keyframe_stamps.size() != k || msg.keyframe_T_world_cam.size() != k)
-    fail("keyframe arrays disagree: " + std::to_string(k) + " keyframe_ids, " +
-         std::to_string(msg.keyframe_stamps.size()) + " keyframe_stamps, " +
-         std::to_string(msg.keyframe_T_world_cam.size()) + " keyframe_T_world_cam");
-  events.keyframes_added.resize(k);
-  for (size_t i = 0; i < k; ++i) {
-    const geometry_msgs::Pose& pose = msg.keyframe_T_world_cam[i];
-    const double values[] = {pose.position.x,    pose.position.y,    pose.position.z,   pose.orientation.x,
-                             pose.orientation.y, pose.orientation.z, pose.orientation.w};
-    for (double v : values)
-      if (!std::isfinite(v)) fail("keyframe " + std::to_string(i) + ": pose not finite");
-    const double norm =
-        std::sqrt(pose.orientation.x * pose.orientation.x + pose.orientation.y * pose.orientation.y +
-                  pose.orientation.z * pose.orientation.z + pose.orientation.w * pose.orientation.w);
-    if (std::abs(norm - 1.0) > 1e-6)
-      fail("keyframe " + std::to_string(i) + ": orientation is not a unit quaternion (norm " +
-           std::to_string(norm) + ")");
-    MapKeyframeState& kf = events.keyframes_added[i];
-    kf.id = msg.keyframe_ids[i];
-    kf.timestamp_s = toDatasetTime(epoch, msg.keyframe_stamps[i]);
-    kf.T_world_cam = fromPoseMsg(pose);
-  }
+  events.keyframes_added =
+      readKeyframes("keyframe", msg.keyframe_ids, msg.keyframe_stamps, msg.keyframe_T_world_cam, epoch);
+  events.keyframes_retired = readKeyframes("retired_keyframe", msg.retired_keyframe_ids,
+                                           msg.retired_keyframe_stamps, msg.retired_keyframe_T_world_cam, epoch);
   events.points_added = readGroup(
       {"added", msg.added_ids, msg.added_positions, msg.added_covariances, msg.added_num_observations});
   events.points_updated = readGroup({"updated", msg.updated_ids, msg.updated_positions,

@@ -7,6 +7,8 @@ namespace planetary_vo {
 
 void Map::clear() {
   for (const auto& entry : points_) markRetired(entry.second);
+  for (const Keyframe& kf : keyframes_)
+    pending_keyframes_retired_.push_back({kf.id, kf.timestamp_s, kf.T_world_cam});
   pending_restart_ = true;
   keyframes_.clear();
   points_.clear();
@@ -115,6 +117,8 @@ int Map::dropKeyframesOutsideWindow(int window_keyframes) {
                                     [&](const MapObservation& o) { return o.keyframe_id < first_kept_id; }))
       markRetired(p);
   }
+  for (size_t i = 0; i < num_drop; ++i)
+    pending_keyframes_retired_.push_back({keyframes_[i].id, keyframes_[i].timestamp_s, keyframes_[i].T_world_cam});
   keyframes_.erase(keyframes_.begin(), keyframes_.begin() + static_cast<std::ptrdiff_t>(num_drop));
 
   int removed = 0;
@@ -329,12 +333,14 @@ MapEvents Map::takeEvents() {
   auto byId = [](const MapPointState& a, const MapPointState& b) { return a.id < b.id; };
   std::sort(events.points_added.begin(), events.points_added.end(), byId);
   std::sort(events.points_updated.begin(), events.points_updated.end(), byId);
+  events.keyframes_retired = std::move(pending_keyframes_retired_);
   events.points_retired = std::move(pending_retired_);
   events.points_removed = std::move(pending_removed_);
   pending_points_.clear();
   pending_retired_.clear();
   pending_removed_.clear();
   pending_keyframes_.clear();
+  pending_keyframes_retired_.clear();
   pending_restart_ = false;
   return events;
 }

@@ -37,6 +37,14 @@ MapEvents makeEvents() {
   kf.T_world_cam = Eigen::Translation3d(1.0 / 3.0, -7.5, 1234.5) *
                    Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -1.0, 0.4).normalized());
   e.keyframes_added.push_back(kf);
+  for (uint64_t i = 0; i < 2; ++i) {  // two keyframes left the window, with their adjusted poses
+    MapKeyframeState old;
+    old.id = 30 + i;
+    old.timestamp_s = 1.5 + 0.125 * static_cast<double>(i);
+    old.T_world_cam = Eigen::Translation3d(-2.0 * static_cast<double>(i), 0.25, 1300.0) *
+                      Eigen::AngleAxisd(0.1 + static_cast<double>(i), Eigen::Vector3d(1.0, 0.5, -0.3).normalized());
+    e.keyframes_retired.push_back(old);
+  }
   for (uint64_t i = 0; i < 4; ++i) e.points_added.push_back(makePoint(100 + i, 0.5 * i));
   for (uint64_t i = 0; i < 3; ++i) e.points_updated.push_back(makePoint(200 + i, -1.0 - i));
   for (uint64_t i = 0; i < 2; ++i) e.points_retired.push_back(makePoint(300 + i, 10.0 + i));
@@ -84,6 +92,14 @@ TEST(MapEventConversions, RoundTripIsExact) {
   EXPECT_EQ(b.timestamp_s, a.timestamp_s);
   EXPECT_EQ(b.T_world_cam.translation(), a.T_world_cam.translation());
   EXPECT_LT((b.T_world_cam.rotation() - a.T_world_cam.rotation()).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_EQ(out.keyframes_retired.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const MapKeyframeState &c = in.keyframes_retired[i], &d = out.keyframes_retired[i];
+    EXPECT_EQ(d.id, c.id);
+    EXPECT_EQ(d.timestamp_s, c.timestamp_s);
+    EXPECT_EQ(d.T_world_cam.translation(), c.T_world_cam.translation());
+    EXPECT_LT((d.T_world_cam.rotation() - c.T_world_cam.rotation()).cwiseAbs().maxCoeff(), 1e-15);
+  }
   expectSamePoints(in.points_added, out.points_added, "added");
   expectSamePoints(in.points_updated, out.points_updated, "updated");
   expectSamePoints(in.points_retired, out.points_retired, "retired");
@@ -101,6 +117,11 @@ TEST(MapEventConversions, MessageLayout) {
   ASSERT_EQ(msg.keyframe_stamps.size(), 1u);
   EXPECT_EQ(msg.keyframe_stamps[0], ros::Time(1700000003, 250000000));
   EXPECT_EQ(msg.keyframe_T_world_cam[0].position.z, 1234.5);
+  EXPECT_EQ(msg.retired_keyframe_ids, (std::vector<uint64_t>{30, 31}));
+  ASSERT_EQ(msg.retired_keyframe_stamps.size(), 2u);
+  EXPECT_EQ(msg.retired_keyframe_stamps[1], ros::Time(1700000001, 625000000));
+  ASSERT_EQ(msg.retired_keyframe_T_world_cam.size(), 2u);
+  EXPECT_EQ(msg.retired_keyframe_T_world_cam[1].position.x, -2.0);
   ASSERT_EQ(msg.added_positions.size(), 12u);
   ASSERT_EQ(msg.added_covariances.size(), 36u);
   EXPECT_EQ(msg.added_positions[3 * 2 + 1], in.points_added[2].p_world.y());
@@ -150,6 +171,12 @@ TEST(MapEventConversions, BadMessagesAreRejected) {
   m = makeMsg();
   m.keyframe_T_world_cam[0].position.x = nan;
   expectRejected(m, "keyframe 0: pose not finite");
+  m = makeMsg();
+  m.retired_keyframe_ids.pop_back();
+  expectRejected(m, "retired_keyframe arrays disagree: 1 retired_keyframe_ids, 2 retired_keyframe_stamps");
+  m = makeMsg();
+  m.retired_keyframe_T_world_cam[1].orientation.w = 3.0;
+  expectRejected(m, "retired_keyframe 1: orientation is not a unit quaternion");
   m = makeMsg();
   m.keyframe_T_world_cam[0].orientation.w = 0.0;
   m.keyframe_T_world_cam[0].orientation.x = 0.0;

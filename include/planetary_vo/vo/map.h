@@ -162,6 +162,7 @@ class Map {
   std::vector<MapPointState> pending_retired_;
   std::vector<uint64_t> pending_removed_;
   std::vector<uint64_t> pending_keyframes_;
+  std::vector<MapKeyframeState> pending_keyframes_retired_;
   bool pending_restart_ = false;
 };
 

@@ -11,7 +11,11 @@
 /// - points_retired: points that left the VO (their keyframes left the window, or the map was restarted)
 ///   with their last state: final, still valid estimates of the terrain;
 /// - points_removed: ids of points the VO rejected (bundle-adjustment outliers, points PnP keeps rejecting):
-///   a consumer should forget them.
+///   a consumer should forget them;
+/// - keyframes_added: keyframes inserted this frame, with their pose at insertion;
+/// - keyframes_retired: keyframes that left the window (or the map, on a restart) with their last pose: the
+///   final estimate after every bundle adjustment they took part in (the keyframe trajectory that DSO's
+///   result.txt and ORB-SLAM's KeyFrameTrajectory.txt report). In the world frame of the frame they left in.
 /// A point appears at most once per frame, in the last category that applies (added then removed in the
 /// same frame: not reported at all). Positions are in the VO world frame of that frame (metres when
 /// FrameResult::metric_scale, else the map's unit; gravity-aligned when the initial pose was handed over or
@@ -45,6 +49,7 @@ struct MapKeyframeState {
 
 struct MapEvents {
   std::vector<MapKeyframeState> keyframes_added;
+  std::vector<MapKeyframeState> keyframes_retired;
   std::vector<MapPointState> points_added;
   std::vector<MapPointState> points_updated;
   std::vector<MapPointState> points_retired;
@@ -54,7 +59,7 @@ struct MapEvents {
   bool map_restarted = false;
 
   bool empty() const {
-    return keyframes_added.empty() && points_added.empty() && points_updated.empty() &&
+    return keyframes_added.empty() && keyframes_retired.empty() && points_added.empty() && points_updated.empty() &&
            points_retired.empty() && points_removed.empty() && !map_restarted;
   }
 };

@@ -59,12 +59,14 @@ struct Options {
   std::string config_path;
   std::string output_path;
   long max_frames = -1;
+  long first_frame = 0;  ///< the first input image given to the VO (the earlier ones are skipped)
   std::string frame_log_path;
   bool quiet = false;
   bool initial_state_from_groundtruth = false;
   bool initial_pose_only = false;
   std::string velocity_path;
   std::string covariance_path;
+  std::string keyframes_path;
   std::string terrain_dir;
   std::string hazard_config_path;
   double sun_elevation_deg = -1.0;  ///< < 0: the hazard config's, or when that is 0 the dataset's
@@ -112,7 +114,17 @@ void usage(std::ostream& out) {
          "  --dataset DIR     planetary_vo, KITTI odometry, EuRoC or TUM RGB-D folder\n"
          "  --config YAML     VO configuration (default: built-in defaults = config/default.yaml)\n"
          "  --output FILE     TUM trajectory (t tx ty tz qx qy qz qw, T_world_cam) of the processed frames\n"
+         "  --output-keyframes FILE  TUM trajectory of the keyframes, each with its last estimate: its pose\n"
+         "                    when it left the bundle adjustment's window (the ones still in it at the end:\n"
+         "                    their pose then). Not causal: a keyframe's pose is refined by adjustments\n"
+         "                    after its image (what DSO's result.txt and ORB-SLAM's KeyFrameTrajectory.txt\n"
+         "                    hold). Vision only: a later change of the world (metric scale, gravity\n"
+         "                    alignment, map restart) is not applied to keyframes that had already left\n"
          "  --max-frames N    stop after N input frames\n"
+         "  --first-frame N   start at input image N (0-based; the images before it, and the IMU and\n"
+         "                    altimeter samples before it, are not used; a handed-over state is the one\n"
+         "                    at that image): the same sequence started elsewhere, to see how much a\n"
+         "                    result depends on where the VO began\n"
          "  --frame-log FILE  one line per processed frame: state, counts, model, keyframe, the stage\n"
          "                    times (ms: total, pose, tracking, detect, ba, optimiser) and the pipeline's\n"
          "                    message (why a frame got no pose, why it became a keyframe)\n"
@@ -185,6 +197,14 @@ bool parseArgs(int argc, char** argv, Options* options) {
         std::cerr << "vo_run: --max-frames needs a positive integer, got '" << text << "'\n";
         return false;
       }
+    } else if (arg == "--first-frame") {
+      if (!value(&text)) return false;
+      char* end = nullptr;
+      options->first_frame = std::strtol(text.c_str(), &end, 10);
+      if (end == text.c_str() || *end != '\0' || options->first_frame < 0) {
+        std::cerr << "vo_run: --first-frame needs a non-negative integer, got '" << text << "'\n";
+        return false;
+      }
     } else if (arg == "--frame-log") {
       if (!value(&options->frame_log_path)) return false;
     } else if (arg == "--initial-error-m" || arg == "--initial-error-deg") {
@@ -229,6 +249,8 @@ bool parseArgs(int argc, char** argv, Options* options) {
       }
     } else if (arg == "--output-velocity") {
       if (!value(&options->velocity_path)) return false;
+    } else if (arg == "--output-keyframes") {
+      if (!value(&options->keyframes_path)) return false;
     } else if (arg == "--initial-pose-only") {
       options->initial_pose_only = true;
     } else if (arg == "--initial-state-from-groundtruth") {
@@ -295,6 +317,10 @@ int main(int argc, char** argv) {
       config.cpu_budget.frame_budget_ms = 0.0;  // fixed at that step
     }
     const Dataset dataset = Dataset::open(options.dataset_dir);
+    if (static_cast<size_t>(options.first_frame) >= dataset.size())
+      throw std::runtime_error("--first-frame " + std::to_string(options.first_frame) + ": the dataset has " +
+                               std::to_string(dataset.size()) + " images");
+    const size_t first_frame = static_cast<size_t>(options.first_frame);
     applyOpenCvThreads(config.cpu_budget);
     Pipeline pipeline(config, dataset.camera());
     CpuBudget cpu_budget(config);
@@ -302,7 +328,16 @@ int main(int argc, char** argv) {
     if (options.initial_state_from_groundtruth) {
       if (!dataset.hasGroundTruth())
         throw std::runtime_error("--initial-state-from-groundtruth: the dataset has no ground truth");
-      StampedPose first = dataset.groundTruth().front();
+      // The true pose at the first image given to the VO.
+      const Trajectory& truth = dataset.groundTruth();
+      const double t_first = dataset.timestamp(first_frame);
+      const auto at_image = std::find_if(truth.begin(), truth.end(), [t_first](const StampedPose& p) {
+        return std::abs(p.timestamp_s - t_first) < 1e-6;
+      });
+      if (at_image == truth.end())
+        throw std::runtime_error("--initial-state-from-groundtruth: no ground-truth pose at image " +
+                                 std::to_string(first_frame));
+      StampedPose first = *at_image;
       // The handover as guidance would give it, with its error (campaigns disperse it).
       const Eigen::Vector3d rv = options.initial_error_deg * M_PI / 180.0;
       if (rv.norm() > 0.0)
@@ -344,9 +379,16 @@ int main(int argc, char** argv) {
     size_t next_altimeter = 0;
     int metric_from_frame = -1;
     int inertial_frames = 0;
-    const size_t num_frames = options.max_frames > 0
-                                  ? std::min(dataset.size(), static_cast<size_t>(options.max_frames))
-                                  : dataset.size();
+    if (first_frame > 0) {  // samples before the first image belong to the skipped part
+      while (next_imu < imu.size() && imu[next_imu].timestamp_s < dataset.timestamp(first_frame)) ++next_imu;
+      while (next_altimeter < altimeter.size() &&
+             altimeter[next_altimeter].timestamp_s < dataset.timestamp(first_frame))
+        ++next_altimeter;
+    }
+    const size_t num_frames =
+        options.max_frames > 0
+            ? std::min(dataset.size(), first_frame + static_cast<size_t>(options.max_frames))
+            : dataset.size();
     const bool progress = !options.quiet && isatty(STDERR_FILENO);
 
     std::ofstream frame_log;
@@ -390,6 +432,7 @@ int main(int argc, char** argv) {
       hazard_mapper->setCamera(dataset.camera());
     }
     Trajectory trajectory;
+    Trajectory keyframe_trajectory;  // the keyframes' last estimates (--output-keyframes)
     std::vector<double> tracking_ms, pyramid_ms, klt_ms, refine_ms, detect_ms, motion_ms, mapping_ms, ba_ms,
         pose_ms, total_ms, optimiser_ms;
     std::array<int, 4> state_counts{};
@@ -400,12 +443,12 @@ int main(int argc, char** argv) {
     // flat.
     double resident_mb_early = 0.0;
     const auto run_start = std::chrono::steady_clock::now();
-    for (size_t i = 0; i < num_frames; ++i) {
+    for (size_t i = first_frame; i < num_frames; ++i) {
       const cv::Mat gray = dataset.loadImage(i);
       if (options.realtime) {
         // The frame is due at its time since the first frame; a frame that is late (the previous one took
         // longer than the frame period) is given at once.
-        const double due_s = dataset.timestamp(i) - dataset.timestamp(0);
+        const double due_s = dataset.timestamp(i) - dataset.timestamp(first_frame);
         std::this_thread::sleep_until(run_start +
                                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                           std::chrono::duration<double>(due_s)));
@@ -425,7 +468,10 @@ int main(int argc, char** argv) {
         densified.tracked += u.densifier.tracked;
         densified.triangulated += u.densifier.triangulated;
       }
-      if (i + 1 == std::max<size_t>(1, num_frames / 10)) resident_mb_early = residentMb();
+      for (const MapKeyframeState& kf : r.map_events.keyframes_retired)
+        keyframe_trajectory.push_back({kf.timestamp_s, kf.T_world_cam});
+      if (i + 1 == first_frame + std::max<size_t>(1, (num_frames - first_frame) / 10))
+        resident_mb_early = residentMb();
       if (!r.processed) continue;
       ++processed;
       max_map_points = std::max(max_map_points, r.num_map_points);
@@ -491,6 +537,13 @@ int main(int argc, char** argv) {
     }
     if (progress) std::fprintf(stderr, "\n");
     writeTumTrajectory(options.output_path, trajectory);
+    if (!options.keyframes_path.empty()) {
+      for (const Keyframe& kf : pipeline.map().keyframes())
+        keyframe_trajectory.push_back({kf.timestamp_s, kf.T_world_cam});
+      std::stable_sort(keyframe_trajectory.begin(), keyframe_trajectory.end(),
+                       [](const auto& a, const auto& b) { return a.timestamp_s < b.timestamp_s; });
+      writeTumTrajectory(options.keyframes_path, keyframe_trajectory);
+    }
     if (hazard_mapper) {
       if (!options.quiet)
         std::printf("terrain: densified %d corners, %d tracked, %d triangulated\n", densified.seeds,

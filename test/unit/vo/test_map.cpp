@@ -205,6 +205,43 @@ TEST(Map, EventsRecordEveryChangeOncePerFrame) {
   EXPECT_EQ(e.points_retired[0].id, kept);
 }
 
+// A keyframe that leaves the window is reported once, with the pose the last bundle adjustment gave it (not
+// the pose it was inserted with); on a restart, all keyframes of the old map are.
+TEST(Map, KeyframesLeaveWithTheirLastPose) {
+  Map map;
+  std::vector<uint64_t> kfs;
+  for (int i = 0; i < 4; ++i) kfs.push_back(addKf(&map, i, {1, 2}));
+  map.addPoint(1, {0, 0, 5}, {{kfs[0], {1, 1}}, {kfs[1], {1, 1}}, {kfs[2], {1, 1}}, {kfs[3], {1, 1}}});
+  EXPECT_TRUE(map.takeEvents().keyframes_retired.empty());
+
+  // The adjustment moves keyframes 1-3 (keyframe 0 is fixed).
+  BaProblem problem = map.makeBaProblem(4, 1, 500, 500, 320, 240);
+  ASSERT_EQ(problem.keyframes.size(), 4u);
+  for (BaKeyframe& k : problem.keyframes)
+    if (!k.fixed) k.T_cam_world.translation().y() = -0.25;  // camera centre at y = +0.25
+  map.applyBaResult(problem, {});
+  map.takeEvents();
+
+  EXPECT_EQ(map.dropKeyframesOutsideWindow(2), 0);
+  MapEvents e = map.takeEvents();
+  ASSERT_EQ(e.keyframes_retired.size(), 2u);
+  EXPECT_EQ(e.keyframes_retired[0].id, kfs[0]);
+  EXPECT_EQ(e.keyframes_retired[1].id, kfs[1]);
+  EXPECT_EQ(e.keyframes_retired[1].timestamp_s, 1.0);
+  EXPECT_NEAR(e.keyframes_retired[0].T_world_cam.translation().y(), 0.0, 1e-12);  // fixed: as inserted
+  EXPECT_NEAR(e.keyframes_retired[1].T_world_cam.translation().y(), 0.25, 1e-12);  // as adjusted
+  EXPECT_NEAR(e.keyframes_retired[1].T_world_cam.translation().x(), 1.0, 1e-12);
+  EXPECT_FALSE(e.empty());
+  EXPECT_TRUE(map.takeEvents().keyframes_retired.empty());  // reported once
+
+  map.clear();
+  e = map.takeEvents();
+  ASSERT_EQ(e.keyframes_retired.size(), 2u);
+  EXPECT_EQ(e.keyframes_retired[0].id, kfs[2]);
+  EXPECT_EQ(e.keyframes_retired[1].id, kfs[3]);
+  EXPECT_NEAR(e.keyframes_retired[1].T_world_cam.translation().y(), 0.25, 1e-12);
+}
+
 }  // namespace
 }  // namespace planetary_vo
 
