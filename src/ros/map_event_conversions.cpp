@@ -105,8 +105,9 @@ std::vector<MapKeyframeState> readKeyframes(const std::string& name, const std::
                                             const ros::Time& epoch) {
   const size_t k = ids.size();
   if (stamps.size() != k || poses.size() != k)
-    fail(name + " arrays disagree: " + std::to_string(k) + " " + name + "_ids, " + std::to_string(stamps.size()) +
-         " " + name + "_stamps, " + std::to_string(poses.size()) + " " + name + "_T_world_cam");
+    fail(name + " arrays disagree: " + std::to_string(k) + " " + name + "_ids, " +
+         std::to_string(stamps.size()) + " " + name + "_stamps, " + std::to_string(poses.size()) + " " +
+         name + "_T_world_cam");
   std::vector<MapKeyframeState> keyframes(k);
   for (size_t i = 0; i < k; ++i) {
     const geometry_msgs::Pose& pose = poses[i];
@@ -137,7 +138,8 @@ VoMapEvents toMsg(const MapEvents& events, bool metric_scale, const std_msgs::He
   msg.metric_scale = metric_scale;
   msg.map_restarted = events.map_restarted;
   const size_t k = events.keyframes_added.size();
-  fillKeyframes(events.keyframes_added, epoch, &msg.keyframe_ids, &msg.keyframe_stamps, &msg.keyframe_T_world_cam);
+  fillKeyframes(events.keyframes_added, epoch, &msg.keyframe_ids, &msg.keyframe_stamps,
+                &msg.keyframe_T_world_cam);
   fillKeyframes(events.keyframes_retired, epoch, &msg.retired_keyframe_ids, &msg.retired_keyframe_stamps,
                 &msg.retired_keyframe_T_world_cam);
   fillGroup(events.points_added,
@@ -162,8 +164,9 @@ MapEvents fromMsg(const VoMapEvents& msg, const ros::Time& epoch, cv::Mat* keyfr
   const size_t k = msg.keyframe_ids.size();
   events.keyframes_added =
       readKeyframes("keyframe", msg.keyframe_ids, msg.keyframe_stamps, msg.keyframe_T_world_cam, epoch);
-  events.keyframes_retired = readKeyframes("retired_keyframe", msg.retired_keyframe_ids,
-                                           msg.retired_keyframe_stamps, msg.retired_keyframe_T_world_cam, epoch);
+  events.keyframes_retired =
+      readKeyframes("retired_keyframe", msg.retired_keyframe_ids, msg.retired_keyframe_stamps,
+                    msg.retired_keyframe_T_world_cam, epoch);
   events.points_added = readGroup(
       {"added", msg.added_ids, msg.added_positions, msg.added_covariances, msg.added_num_observations});
   events.points_updated = readGroup({"updated", msg.updated_ids, msg.updated_positions,

@@ -118,7 +118,8 @@ int Map::dropKeyframesOutsideWindow(int window_keyframes) {
       markRetired(p);
   }
   for (size_t i = 0; i < num_drop; ++i)
-    pending_keyframes_retired_.push_back({keyframes_[i].id, keyframes_[i].timestamp_s, keyframes_[i].T_world_cam});
+    pending_keyframes_retired_.push_back(
+        {keyframes_[i].id, keyframes_[i].timestamp_s, keyframes_[i].T_world_cam});
   keyframes_.erase(keyframes_.begin(), keyframes_.begin() + static_cast<std::ptrdiff_t>(num_drop));
 
   int removed = 0;

@@ -40,9 +40,10 @@ MapEvents makeEvents() {
   for (uint64_t i = 0; i < 2; ++i) {  // two keyframes left the window, with their adjusted poses
     MapKeyframeState old;
     old.id = 30 + i;
-    old.timestamp_s = 1.5 + 0.125 * static_cast<double>(i);
-    old.T_world_cam = Eigen::Translation3d(-2.0 * static_cast<double>(i), 0.25, 1300.0) *
-                      Eigen::AngleAxisd(0.1 + static_cast<double>(i), Eigen::Vector3d(1.0, 0.5, -0.3).normalized());
+    const double a = static_cast<double>(i);
+    old.timestamp_s = 1.5 + 0.125 * a;
+    old.T_world_cam = Eigen::Translation3d(-2.0 * a, 0.25, 1300.0) *
+                      Eigen::AngleAxisd(0.1 + a, Eigen::Vector3d(1.0, 0.5, -0.3).normalized());
     e.keyframes_retired.push_back(old);
   }
   for (uint64_t i = 0; i < 4; ++i) e.points_added.push_back(makePoint(100 + i, 0.5 * i));

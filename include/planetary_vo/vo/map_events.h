@@ -59,8 +59,8 @@ struct MapEvents {
   bool map_restarted = false;
 
   bool empty() const {
-    return keyframes_added.empty() && keyframes_retired.empty() && points_added.empty() && points_updated.empty() &&
-           points_retired.empty() && points_removed.empty() && !map_restarted;
+    return keyframes_added.empty() && keyframes_retired.empty() && points_added.empty() &&
+           points_updated.empty() && points_retired.empty() && points_removed.empty() && !map_restarted;
   }
 };
 

@@ -204,7 +204,8 @@ TEST(GridDetector, ReplenishmentRedistributesOnlyUpToTheTotalBudget) {
   const DetectorConfig cfg;
   GridDetector d(cfg);
   const std::vector<cv::KeyPoint> full = d.detect(img);
-  ASSERT_EQ(static_cast<int>(full.size()), cfg.num_features) << "precondition: the textured half takes it all";
+  ASSERT_EQ(static_cast<int>(full.size()), cfg.num_features)
+      << "precondition: the textured half takes it all";
 
   // Empty four textured cells of the right half.
   const std::vector<int> emptied = {5, 22, 39, 63};
