@@ -354,12 +354,13 @@ def main():
                 if run(cmd, os.path.join(out, "vo_eval_sim3.log"))[0] == 0:
                     with open(sim3_json) as f:
                         sim3 = json.load(f)
-                # The keyframes with their last estimate (not causal), scored like DSO's result.txt.
+                # The keyframes with their last estimate (not causal), scored like DSO's result.txt. A run reused
+                # from before --output-keyframes existed has no such file.
                 kf_json = os.path.join(out, "eval_keyframes_sim3.json")
-                if count_lines(keyframes) >= 3 and os.path.getmtime(keyframes) >= os.path.getmtime(traj) - 60 and \
-                        run(common[:3] + ["--est", keyframes] + eval_frame_args(row["sequence"]) +
-                            ["--align", "sim3", "--json", kf_json],
-                            os.path.join(out, "vo_eval_keyframes_sim3.log"))[0] == 0:
+                kf_cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", keyframes] + \
+                    eval_frame_args(row["sequence"]) + ["--align", "sim3", "--json", kf_json]
+                kf_log = os.path.join(out, "vo_eval_keyframes_sim3.log")
+                if count_lines(keyframes) >= 3 and run(kf_cmd, kf_log)[0] == 0:
                     with open(kf_json) as f:
                         r["keyframes_ate_percent"] = json.load(f)["ate_rmse_percent_of_path"]
                         r["keyframes_posed"] = count_lines(keyframes)

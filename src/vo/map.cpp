@@ -5,10 +5,15 @@
 
 namespace planetary_vo {
 
+namespace {
+
+MapKeyframeState keyframeState(const Keyframe& kf) { return {kf.id, kf.timestamp_s, kf.T_world_cam}; }
+
+}  // namespace
+
 void Map::clear() {
   for (const auto& entry : points_) markRetired(entry.second);
-  for (const Keyframe& kf : keyframes_)
-    pending_keyframes_retired_.push_back({kf.id, kf.timestamp_s, kf.T_world_cam});
+  for (const Keyframe& kf : keyframes_) pending_keyframes_retired_.push_back(keyframeState(kf));
   pending_restart_ = true;
   keyframes_.clear();
   points_.clear();
@@ -117,9 +122,7 @@ int Map::dropKeyframesOutsideWindow(int window_keyframes) {
                                     [&](const MapObservation& o) { return o.keyframe_id < first_kept_id; }))
       markRetired(p);
   }
-  for (size_t i = 0; i < num_drop; ++i)
-    pending_keyframes_retired_.push_back(
-        {keyframes_[i].id, keyframes_[i].timestamp_s, keyframes_[i].T_world_cam});
+  for (size_t i = 0; i < num_drop; ++i) pending_keyframes_retired_.push_back(keyframeState(keyframes_[i]));
   keyframes_.erase(keyframes_.begin(), keyframes_.begin() + static_cast<std::ptrdiff_t>(num_drop));
 
   int removed = 0;
@@ -324,7 +327,7 @@ MapEvents Map::takeEvents() {
   events.map_restarted = pending_restart_;
   for (uint64_t id : pending_keyframes_)
     if (const Keyframe* kf = keyframe(id))
-      events.keyframes_added.push_back({kf->id, kf->timestamp_s, kf->T_world_cam});
+      events.keyframes_added.push_back(keyframeState(*kf));
   for (const auto& entry : pending_points_) {
     const auto it = points_.find(entry.first);
     if (it == points_.end()) continue;

@@ -313,6 +313,73 @@ std::string joinArgs(const std::vector<std::string>& argv) {
   return s;
 }
 
+/// The lines of a TUM trajectory: stamp, then tx ty tz qx qy qz qw.
+std::vector<std::vector<double>> readTum(const std::string& path) {
+  std::vector<std::vector<double>> rows;
+  for (const std::string& line : splitLines(readFile(path))) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    std::vector<double> row(8);
+    for (double& v : row) in >> v;
+    if (in) rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(VoRun, KeyframeTrajectoryHoldsTheAdjustedKeyframesAndFirstFrameSkipsTheStart) {
+  // --output-keyframes: every keyframe once, in time order, at an image's stamp, with its pose after the
+  // adjustments that followed it, so most differ from the pose output at their own image. --first-frame N: no
+  // pose before image N. Both on the rendered test sequence (61 images).
+  const std::string out = std::string(PLANETARY_VO_TEST_OUTPUT_DIR) + "/vo_run_keyframes";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  std::vector<double> times;
+  for (const std::string& line : splitLines(readFile(std::string(VO_TEST_DATASET) + "/times.txt")))
+    if (!line.empty() && line[0] != '#') times.push_back(std::stod(line));
+  ASSERT_GE(times.size(), 40u);
+  const std::string vo_run = VO_RUN_EXE;
+  RunResult r = run({vo_run, "--dataset", VO_TEST_DATASET, "--output", out + "/all.txt", "--output-keyframes",
+                     out + "/keyframes.txt", "--quiet"},
+                    out + "/all.log");
+  ASSERT_TRUE(r.exited && r.code == 0) << r.output;
+  const auto online = readTum(out + "/all.txt");
+  const auto keyframes = readTum(out + "/keyframes.txt");
+  ASSERT_GE(keyframes.size(), 5u);
+  int refined = 0, compared = 0;
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    if (k > 0) EXPECT_LT(keyframes[k - 1][0], keyframes[k][0]) << "keyframe " << k;
+    const double t_k = keyframes[k][0];
+    EXPECT_TRUE(std::any_of(times.begin(), times.end(), [t_k](double t) { return std::abs(t - t_k) < 1e-6; }))
+        << "keyframe " << k << " at " << t_k << " is not an image's stamp";
+    for (const auto& pose : online) {
+      if (std::abs(pose[0] - keyframes[k][0]) > 1e-6) continue;
+      ++compared;
+      const double moved =
+          std::hypot(pose[1] - keyframes[k][1], pose[2] - keyframes[k][2], pose[3] - keyframes[k][3]);
+      if (moved > 1e-9) ++refined;
+    }
+  }
+  EXPECT_GE(compared, static_cast<int>(keyframes.size()) - 1);  // all but the initialisation's reference
+  EXPECT_GT(2 * refined, compared) << refined << " of " << compared << " keyframes moved after their image";
+
+  const size_t first = 20;
+  r = run({vo_run, "--dataset", VO_TEST_DATASET, "--output", out + "/late.txt", "--first-frame",
+           std::to_string(first), "--quiet"},
+          out + "/late.log");
+  ASSERT_TRUE(r.exited && r.code == 0) << r.output;
+  const auto late = readTum(out + "/late.txt");
+  ASSERT_GE(late.size(), 10u);
+  EXPECT_GT(late.front()[0], times[first] - 1e-6);  // its first image initialises: no pose of its own
+  EXPECT_LT(late.front()[0], times[first + 5]);
+  EXPECT_NEAR(late.back()[0], online.back()[0], 1e-6);
+
+  r = run({vo_run, "--dataset", VO_TEST_DATASET, "--output", out + "/none.txt", "--first-frame",
+           std::to_string(times.size()), "--quiet"},
+          out + "/none.log");
+  EXPECT_TRUE(r.exited && r.code != 0);
+  EXPECT_NE(r.output.find("--first-frame"), std::string::npos) << r.output;
+}
+
 TEST(VoRun, RealtimeFeedsTheFramesAtTheirRateAndKeepsTheTrajectory) {
   // vo_run --realtime gives each frame at its time since the first (as a camera would): the run lasts at least
   // the dataset's span, and the trajectory is that of the back-to-back run (the asynchronous optimiser is
