@@ -826,10 +826,16 @@ AsyncBundleAdjuster::~AsyncBundleAdjuster() {
   if (worker_.joinable()) worker_.join();
 }
 
-void AsyncBundleAdjuster::submit(BaProblem problem) {
+void AsyncBundleAdjuster::submit(BaProblem problem) { submit(std::move(problem), config_); }
+
+void AsyncBundleAdjuster::submit(BaProblem problem, const BundleAdjustmentConfig& solve) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     queued_ = std::move(problem);  // a newer window supersedes one that has not started
+    queued_config_ = config_;
+    queued_config_.robust_loss = solve.robust_loss;
+    queued_config_.robust_loss_scale_px = solve.robust_loss_scale_px;
+    queued_config_.max_iterations = solve.max_iterations;
   }
   wake_.notify_one();
 }
@@ -874,6 +880,7 @@ void AsyncBundleAdjuster::run() {
     wake_.wait(lock, [this] { return stop_ || queued_.has_value(); });
     if (stop_) break;
     BaProblem problem = std::move(*queued_);
+    const BundleAdjustmentConfig solve = queued_config_;
     queued_.reset();
     running_ = true;
     lock.unlock();
@@ -884,7 +891,7 @@ void AsyncBundleAdjuster::run() {
     const bool want_covariance = problem.inertial.compute_covariance;
     problem.inertial.compute_covariance = false;
     try {
-      summary = adjustBundleImpl(&problem, config_, &abort_, nullptr);
+      summary = adjustBundleImpl(&problem, solve, &abort_, nullptr);
     } catch (...) {
       error = std::current_exception();
     }
@@ -911,7 +918,7 @@ void AsyncBundleAdjuster::run() {
     idle_.notify_all();
     if (covariance_running_) {
       lock.unlock();
-      BundleAdjustmentConfig evaluate_only = config_;
+      BundleAdjustmentConfig evaluate_only = solve;
       evaluate_only.max_iterations = 0;
       try {
         adjustBundleImpl(&*covariance_problem, evaluate_only, &abort_, nullptr);

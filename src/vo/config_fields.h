@@ -177,6 +177,7 @@ void bundleAdjustmentFields(C& c, V& v) {
   v("window_keyframes", c.window_keyframes, 2, 1000);
   v.enumeration("robust_loss", c.robust_loss);
   v("robust_loss_scale_px", c.robust_loss_scale_px, 1e-3, 100.0);
+  v("robust_loss_scale_aligned_px", c.robust_loss_scale_aligned_px, 1e-3, 100.0);
   v("max_iterations", c.max_iterations, 1, 10000);
   v("asynchronous", c.asynchronous);
   v("thread_nice", c.thread_nice, 0, 19);

@@ -664,6 +664,7 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
     assoc_.point_ids.push_back(p->id);
   }
   const Pose predicted = predictPose();
+  pnp_tracker_.setRobustLossScale(adjustmentConfig(*result).robust_loss_scale_px);
   const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_, &predicted);
   assoc_.inlier.assign(assoc_.size(), 0);
   if (pnp.valid) assoc_.inlier = pnp.inlier_mask;
@@ -833,6 +834,12 @@ std::vector<BaRangeObservation> Pipeline::altimeterRanges() const {
   return ranges;
 }
 
+BundleAdjustmentConfig Pipeline::adjustmentConfig(const FrameResult& frame) const {
+  BundleAdjustmentConfig config = config_.bundle_adjustment;
+  if (frame.anchor_alignment) config.robust_loss_scale_px = config.robust_loss_scale_aligned_px;
+  return config;
+}
+
 void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (!config_.bundle_adjustment.enabled) return;
   const Clock::time_point start = Clock::now();
@@ -866,12 +873,12 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
                                          [](const BaKeyframe& k) { return !k.fixed; });
   if (!has_free_pose || problem.points.empty()) return;
   if (async_ba_) {
-    async_ba_->submit(std::move(problem));
+    async_ba_->submit(std::move(problem), adjustmentConfig(*result));
     images_since_ba_submit_ = 0;
     result->times.ba_ms += msSince(start);
     return;
   }
-  const BaSummary summary = adjustBundle(&problem, config_.bundle_adjustment);
+  const BaSummary summary = adjustBundle(&problem, adjustmentConfig(*result));
   result->times.optimiser_ms = summary.solve_cpu_ms;
   if (summary.converged) {
     const int removed = map_.applyBaResult(problem, summary.outliers);
@@ -904,6 +911,7 @@ void Pipeline::refinePoseAgainstMap(FrameResult* result) {
   assoc_.point_ids.resize(kept);
   assoc_.inlier.resize(kept);
   const Pose before = result->T_world_cam;
+  pnp_tracker_.setRobustLossScale(adjustmentConfig(*result).robust_loss_scale_px);
   const PnpTrackResult pnp = pnp_tracker_.track(assoc_.p_world, assoc_.px, K_, &before);
   if (!pnp.valid) return;  // the pose against the map before the adjustment stands
   result->T_world_cam = pnp.T_world_cam;

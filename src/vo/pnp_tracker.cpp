@@ -1,6 +1,8 @@
 #include "planetary_vo/vo/pnp_tracker.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "planetary_vo/geometry/pnp_solver.h"
 
@@ -8,6 +10,13 @@ namespace planetary_vo {
 
 PnpTracker::PnpTracker(const PnpConfig& config, const BundleAdjustmentConfig& refinement)
     : config_(config), refinement_(refinement) {}
+
+void PnpTracker::setRobustLossScale(double loss_scale_px) {
+  if (!(loss_scale_px > 0.0 && std::isfinite(loss_scale_px)))
+    throw std::invalid_argument("PnpTracker: robust-loss scale must be positive, got " +
+                                std::to_string(loss_scale_px));
+  refinement_.robust_loss_scale_px = loss_scale_px;
+}
 
 namespace {
 

@@ -194,6 +194,10 @@ class AsyncBundleAdjuster {
   AsyncBundleAdjuster& operator=(const AsyncBundleAdjuster&) = delete;
 
   void submit(BaProblem problem);
+  /// The same, solved with the loss and iteration cap of `solve` (robust_loss, robust_loss_scale_px,
+  /// max_iterations); the thread settings stay the constructor's. The Pipeline passes the robust-loss scale
+  /// of the tracking method (BundleAdjustmentConfig::robust_loss_scale_aligned_px).
+  void submit(BaProblem problem, const BundleAdjustmentConfig& solve);
   /// The most recent finished adjustment, if one finished since the last call.
   std::optional<std::pair<BaProblem, BaSummary>> takeResult();
   /// The inertial states with their covariance of the last solve that asked for one (waits until it is
@@ -209,6 +213,7 @@ class AsyncBundleAdjuster {
   mutable std::mutex mutex_;
   std::condition_variable wake_, idle_;
   std::optional<BaProblem> queued_;
+  BundleAdjustmentConfig queued_config_;  ///< the loss and iterations of the queued problem
   std::optional<std::pair<BaProblem, BaSummary>> finished_;
   std::optional<std::vector<BaInertialState>> covariance_finished_;
   std::condition_variable covariance_done_;

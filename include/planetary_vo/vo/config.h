@@ -187,8 +187,13 @@ struct BundleAdjustmentConfig {
   bool enabled = true;
   int window_keyframes = 10;  ///< keyframes whose poses are optimised
   RobustLoss robust_loss = RobustLoss::kHuber;
-  double robust_loss_scale_px = 2.0;  ///< reprojection error where the robust loss starts to flatten
-  int max_iterations = 20;            ///< Ceres iterations per adjustment
+  /// Reprojection error where the robust loss starts to flatten, for frames tracked with LK.
+  double robust_loss_scale_px = 2.0;
+  /// The same while the tracker runs anchor_alignment: its tracks are aligned to sub-pixel against their
+  /// anchor patch, so their inlier errors are smaller than LK's. Used by the adjustment and the per-frame
+  /// refinement of the frames tracked that way (and for their 3x outlier threshold).
+  double robust_loss_scale_aligned_px = 0.5;
+  int max_iterations = 20;  ///< Ceres iterations per adjustment
   /// Adjust in a background thread while the next image is tracked (applied before that frame's pose, so
   /// results do not depend on timing); false = inline, within the keyframe's own processing.
   bool asynchronous = true;

@@ -182,6 +182,9 @@ class Pipeline {
   void maybeInsertKeyframe(FrameResult* result);
   void insertKeyframe(FrameResult* result);
   void runBundleAdjustment(FrameResult* result);
+  /// The bundle adjustment's config with the robust-loss scale of the frame's tracking method
+  /// (robust_loss_scale_aligned_px when `frame` was tracked by anchor alignment).
+  BundleAdjustmentConfig adjustmentConfig(const FrameResult& frame) const;
   void applyAsyncBundleAdjustment(FrameResult* result);
   /// The current frame's pose refined again against the map points as they are now (after an adjustment).
   void refinePoseAgainstMap(FrameResult* result);

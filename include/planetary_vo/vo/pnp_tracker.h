@@ -45,10 +45,16 @@ class PnpTracker {
   PnpTrackResult track(const std::vector<Eigen::Vector3d>& p_world, const std::vector<Eigen::Vector2d>& px,
                        const Eigen::Matrix3d& K, const Pose* T_world_cam_predicted = nullptr);
 
+  /// The robust-loss scale of the refinement from now on (the constructor's is
+  /// refinement.robust_loss_scale_px); the Pipeline sets the one of the frame's tracking method. Must be
+  /// positive.
+  void setRobustLossScale(double loss_scale_px);
+
  private:
   /// Robust refinement from T_cam_world, then its inliers; false when too few.
   bool refineAndScore(Pose T_cam_world, const std::vector<Eigen::Vector3d>& p_world,
-                      const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K, PnpTrackResult* result);
+                      const std::vector<Eigen::Vector2d>& px, const Eigen::Matrix3d& K,
+                      PnpTrackResult* result);
 
   PnpConfig config_;
   BundleAdjustmentConfig refinement_;

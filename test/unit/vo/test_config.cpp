@@ -124,6 +124,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);
   EXPECT_EQ(c.bundle_adjustment.robust_loss, RobustLoss::kCauchy);
   EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_px, 1.5);
+  EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_aligned_px, 0.75);
   EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
   EXPECT_FALSE(c.bundle_adjustment.asynchronous);
   EXPECT_EQ(c.bundle_adjustment.thread_nice, 3);

@@ -274,6 +274,45 @@ TEST(Pipeline, TheAdjustmentIsTakenAtTheConfiguredImageOrAtTheNextKeyframe) {
   }
 }
 
+// The robust-loss scale of the adjustment and of the pose refinement follows the frame's tracking method:
+// robust_loss_scale_aligned_px for frames tracked by anchor alignment, robust_loss_scale_px for LK frames.
+// Changing the scale of the other method changes nothing (bit-identical poses); changing the method's own
+// scale changes the poses.
+TEST(Pipeline, TheRobustLossScaleFollowsTheTrackingMethod) {
+  auto poses = [](TrackingMethod method, double klt_scale_px, double aligned_scale_px) {
+    VoConfig config;
+    config.tracker.method = method;
+    config.bundle_adjustment.robust_loss_scale_px = klt_scale_px;
+    config.bundle_adjustment.robust_loss_scale_aligned_px = aligned_scale_px;
+    const SequenceRun run = runSequence(config, 40);
+    std::vector<Pose> out;
+    for (const FrameResult& r : run.results) {
+      EXPECT_EQ(r.anchor_alignment, method == TrackingMethod::kAnchorAlignment) << "frame " << r.frame_index;
+      if (r.hasPoseEstimate()) out.push_back(r.T_world_cam);
+    }
+    return out;
+  };
+  auto largestDifferenceM = [](const std::vector<Pose>& a, const std::vector<Pose>& b) {
+    EXPECT_EQ(a.size(), b.size());
+    double largest = 0.0;
+    for (size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+      largest = std::max(largest, (a[i].translation() - b[i].translation()).norm());
+    return largest;
+  };
+  for (const TrackingMethod method : {TrackingMethod::kAnchorAlignment, TrackingMethod::kKlt}) {
+    const bool aligned = method == TrackingMethod::kAnchorAlignment;
+    const std::vector<Pose> base = poses(method, 2.0, 0.5);
+    ASSERT_GE(base.size(), 25u);
+    // The other method's scale: no effect at all.
+    const std::vector<Pose> other = aligned ? poses(method, 5.0, 0.5) : poses(method, 2.0, 5.0);
+    EXPECT_EQ(largestDifferenceM(base, other), 0.0) << (aligned ? "anchor alignment" : "klt");
+    // The method's own scale: the poses move (0.02 px: below the tracks' errors on this clean sequence, which
+    // stay under 0.5 px, so that the loss is active).
+    const std::vector<Pose> own = aligned ? poses(method, 2.0, 0.02) : poses(method, 0.02, 0.5);
+    EXPECT_GT(largestDifferenceM(base, own), 1e-6) << (aligned ? "anchor alignment" : "klt");
+  }
+}
+
 TEST(Pipeline, UnitStepChainConcatenatesUnitHomographySteps) {
   VoConfig config;
   config.pipeline.trajectory_mode = TrajectoryMode::kUnitStepConcatenation;
