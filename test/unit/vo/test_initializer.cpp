@@ -7,10 +7,13 @@
 
 #include <cmath>
 #include <iostream>
+#include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 
 #include "planetary_vo/geometry/synthetic_scene.h"
 #include "planetary_vo/vo/initializer.h"
@@ -221,13 +224,15 @@ TEST(Initializer, ReliefOffThePlaneSettlesTheTwinThatTheCountsCannot) {
   const SyntheticTwoViewScene ground = scene(80.0, 100.0, 0.1, Eigen::Vector3d(0.2, 0.1, 1.0));
   for (MotionModel model : {MotionModel::kHomography, MotionModel::kAuto}) {
     SCOPED_TRACE(toString(model));
-    const Initialization map = Initializer(motionConfig(model), MapConfig(), Eigen::Vector3d::Zero())
-                                   .initialize(ids(ground.px1.size()), ground.px1, ground.px2, ground.camera.K());
+    const Initialization map =
+        Initializer(motionConfig(model), MapConfig(), Eigen::Vector3d::Zero())
+            .initialize(ids(ground.px1.size()), ground.px1, ground.px2, ground.camera.K());
     std::cout << toString(model) << ": " << map.points_c1.size() << " points, rival " << map.rival_points
               << " at " << map.rival_cost_ratio << "x the cost " << map.reason << "\n";
     ASSERT_TRUE(map.valid) << map.reason;
     expectMotionClose(map.motion, ground.T_c2_c1, 2.0, 0.3);
-    EXPECT_GE(map.rival_points, 0.75 * map.points_c1.size()) << "precondition: the counts alone are ambiguous";
+    EXPECT_GE(map.rival_points, 0.75 * map.points_c1.size())
+        << "precondition: the counts alone are ambiguous";
     EXPECT_GE(map.rival_cost_ratio, 1.5);
   }
   // Over flat to rough ground and 0.1-0.5 px of noise: the cost starts a map only for the right motion, and
@@ -279,6 +284,59 @@ TEST(Initializer, NoParallaxIsRejectedNotInvented) {
     EXPECT_FALSE(map.valid) << toString(model);
     EXPECT_FALSE(map.reason.empty());
   }
+}
+
+/// A street seen by a car's camera (KITTI-like: 1241 x 376 px, f 718 px, 1.65 m above the road): a third of
+/// the points on the road 4-14 m ahead, the rest on facades and far away (15-80 m); the car moves `forward_m`
+/// with a 0.5 deg turn. Not planar: the homography of the road explains only its third.
+SyntheticTwoViewScene street(double forward_m, uint32_t seed) {
+  SyntheticTwoViewScene s;
+  s.camera = PinholeCamera(1241, 376, 718.856, 718.856, 607.19, 185.22);
+  s.T_c2_c1.linear() = Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  s.T_c2_c1.translation() = -s.T_c2_c1.linear() * Eigen::Vector3d(0.0, 0.0, forward_m);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  while (s.points_c1.size() < 150) {
+    Eigen::Vector3d p;
+    if (s.points_c1.size() % 3 == 0) {  // road: y = +1.65 m (camera y down)
+      p = Eigen::Vector3d(-6.0 + 12.0 * u(rng), 1.65, 4.0 + 10.0 * u(rng));
+    } else {  // facades and the far street
+      p = Eigen::Vector3d(-25.0 + 50.0 * u(rng), -8.0 + 9.5 * u(rng), 15.0 + 65.0 * u(rng));
+    }
+    const Eigen::Vector2d a = s.camera.project(p), b = s.camera.project(s.T_c2_c1 * p);
+    if (a.x() < 0 || a.x() > 1240 || a.y() < 0 || a.y() > 375 || b.x() < 0 || b.x() > 1240 || b.y() < 0 ||
+        b.y() > 375)
+      continue;
+    s.points_c1.push_back(p);
+    s.px1.emplace_back(a.x() + noise(rng), a.y() + noise(rng));
+    s.px2.emplace_back(b.x() + noise(rng), b.y() + noise(rng));
+  }
+  return s;
+}
+
+TEST(Initializer, ARoadHomographyDoesNotStartAStreetWhoseParallaxIsTooSmall) {
+  // The KITTI turn clip started at its image 1 was initialised 0.1 s later from a homography of 56 of 136
+  // points (the road), with a median parallax of 10.8 deg under its own decomposition while the essential
+  // matrix measured 0.32 deg on 104 points: a wrong motion (Sim(3) ATE 3.2 %, attitude off by 10 deg). When
+  // the score does not call the views planar, the homography of part of them is a fallback only where E has
+  // no verdict on the parallax; where E says it is too small, the initialisation waits.
+  MotionConfig motion = motionConfig(MotionModel::kAuto);
+  const Initializer init(motion, MapConfig());
+  const SyntheticTwoViewScene near = street(0.6, 3);
+  const Initialization wait = init.initialize(ids(near.px1.size()), near.px1, near.px2, near.camera.K());
+  EXPECT_FALSE(wait.valid) << "started: " << wait.motion.reason;
+  EXPECT_NE(wait.reason.find("parallax"), std::string::npos) << wait.reason;
+  // The homography alone is valid on these views: it is what the old fallback started from.
+  motion.model = MotionModel::kHomography;
+  const RelativeMotion h =
+      Initializer(motion, MapConfig()).estimateMotion(near.px1, near.px2, near.camera.K());
+  EXPECT_TRUE(h.valid) << h.reason;
+  // With enough parallax E starts the map, with the true motion.
+  const SyntheticTwoViewScene far = street(3.0, 3);
+  const Initialization go = init.initialize(ids(far.px1.size()), far.px1, far.px2, far.camera.K());
+  ASSERT_TRUE(go.valid) << go.reason;
+  expectMotionClose(go.motion, far.T_c2_c1, 3.0, 0.2);
 }
 
 TEST(Initializer, TooFewCorrespondencesAreRejected) {
