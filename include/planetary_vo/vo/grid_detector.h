@@ -28,7 +28,10 @@ struct DetectionStats {
   int redistributed = 0;               ///< features placed beyond their cell's own share (budget moved)
   int budget = 0;                      ///< features requested from the active cells
   double detect_ms = 0.0;              ///< pyramid + FAST + selection
-  double describe_ms = 0.0;            ///< orientation + rBRIEF, 0 when descriptors are off
+  /// Pixels of the pyramid levels above full resolution that were computed: all of them for a detection in
+  /// most cells, only the active cells' regions for a replenishment in a few (GridDetector::detect).
+  long pyramid_pixels = 0;
+  double describe_ms = 0.0;  ///< orientation + rBRIEF, 0 when descriptors are off
 };
 
 /// @brief Grid-distributed ORB/FAST feature detector.
@@ -43,7 +46,9 @@ struct DetectionStats {
 ///
 /// Corners come from all num_levels pyramid levels (scale_factor apart, as ORB) and are reported at full
 /// resolution with `octave` = level and `size` = patch_size_px * scale, so ORB descriptors can be computed
-/// later.
+/// later. When at most a quarter of the cells is searched (replenishment) and no descriptors are wanted, only
+/// the regions of the levels that their FAST reads are computed (bilinear from the level below, the same
+/// sampling as the whole level's resize to within a grey level), not the whole pyramid.
 ///
 /// Threading: not thread-safe (reuses internal buffers); use one instance per thread.
 class GridDetector {
@@ -78,6 +83,11 @@ class GridDetector {
 
  private:
   void buildPyramid(const cv::Mat& gray);
+  /// Only the regions of levels 1.. that FAST reads for the active cells (existing_per_cell below
+  /// cell_min_features), each computed from the level below.
+  void buildPyramidRegions(const cv::Mat& gray, int cell_min_features);
+  /// The region of level `l` that FAST reads for `cell` (clipped to the level).
+  cv::Rect fastRegion(int cell, int l) const;
   void collectCandidates(int cell, int threshold, std::vector<cv::KeyPoint>* out);
   bool farFromAccepted(const cv::Point2f& px) const;
   void accept(const cv::Point2f& px);
@@ -90,6 +100,7 @@ class GridDetector {
   // Buffers reused from call to call so that a steady-state detect() allocates little.
   cv::Size image_size_;
   std::vector<cv::Mat> levels_;                              // level 0 is a header on the caller's image
+  std::vector<cv::Rect> level_regions_;                      // per level, buildPyramidRegions() scratch
   std::vector<std::vector<cv::KeyPoint>> candidates_;        // per cell, strongest first
   std::vector<std::vector<cv::KeyPoint>> level_candidates_;  // per level, for the cell being collected
   std::vector<size_t> level_taken_;

@@ -2,6 +2,7 @@
 /// low-threshold fallback, minimum distance, replenishment masks and descriptors.
 
 #include <algorithm>
+#include <iostream>
 #include <cmath>
 #include <vector>
 
@@ -232,6 +233,54 @@ TEST(GridDetector, ReplenishmentRedistributesOnlyUpToTheTotalBudget) {
   counts = countPerCell(d, added, kSize);
   for (int c : emptied) EXPECT_EQ(counts[c], 4) << "emptied cell " << c;
   EXPECT_EQ(static_cast<int>(added.size()), 4 * 4);
+}
+
+TEST(GridDetector, ReplenishmentInAFewCellsBuildsOnlyTheirPartOfThePyramid) {
+  // Four emptied cells (two at the image's border, two inside) of 64: the replenishment computes only the
+  // regions of the pyramid levels that their FAST reads, and finds the corners the whole pyramid gives (a
+  // detector with descriptors on builds the whole pyramid: the reference). The partial levels sample the level
+  // below bilinearly like the whole level's resize, to within a grey level, so a few corners may differ.
+  const cv::Size size(1024, 768);
+  const cv::Mat img = texture(size, 5);
+  DetectorConfig cfg;
+  GridDetector d(cfg);
+  const std::vector<cv::KeyPoint> full = d.detect(img);
+  const long full_pyramid_pixels = d.lastStats().pyramid_pixels;
+  ASSERT_GT(full_pyramid_pixels, static_cast<long>(size.area()) / 2);  // levels 1-3 at 1.5: 0.73x the image
+  const std::vector<int> emptied = {0, 20, 45, 63};
+  std::vector<cv::Point2f> existing;
+  for (const cv::KeyPoint& kp : full)
+    if (std::find(emptied.begin(), emptied.end(), d.cellIndex(kp.pt, size)) == emptied.end())
+      existing.push_back(kp.pt);
+
+  d.detect(texture(size, 6));  // the levels now hold another image: nothing stale may pass for this one
+  const std::vector<cv::KeyPoint> partial = d.detect(img, existing);
+  ASSERT_EQ(d.lastStats().active_cells, 4);
+  std::cout << "pyramid pixels: whole " << full_pyramid_pixels << ", four cells " << d.lastStats().pyramid_pixels
+            << "\n";
+  EXPECT_GT(d.lastStats().pyramid_pixels, 0);
+  EXPECT_LT(d.lastStats().pyramid_pixels, full_pyramid_pixels / 8);
+
+  DetectorConfig whole_cfg = cfg;
+  whole_cfg.compute_descriptors = true;
+  GridDetector whole(whole_cfg);
+  const std::vector<cv::KeyPoint> reference = whole.detect(img, existing);
+  EXPECT_EQ(whole.lastStats().pyramid_pixels, full_pyramid_pixels);
+  ASSERT_EQ(partial.size(), reference.size());
+  ASSERT_GE(partial.size(), 4u * 4u);
+  int same = 0, coarse = 0;
+  for (const cv::KeyPoint& kp : partial) {
+    if (kp.octave > 0) ++coarse;
+    for (const cv::KeyPoint& ref : reference)
+      if (ref.octave == kp.octave && cv::norm(ref.pt - kp.pt) < 1e-3) {
+        ++same;
+        break;
+      }
+  }
+  EXPECT_GT(coarse, 0) << "the test needs corners from the partial levels";
+  std::cout << same << " of " << partial.size() << " corners as with the whole pyramid, " << coarse
+            << " from levels above full resolution\n";
+  EXPECT_GE(same, static_cast<int>(0.8 * partial.size())) << same << " of " << partial.size();
 }
 
 TEST(GridDetector, CellMinFeaturesTopsUpSparseCells) {
