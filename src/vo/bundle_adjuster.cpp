@@ -832,10 +832,7 @@ void AsyncBundleAdjuster::submit(BaProblem problem, const BundleAdjustmentConfig
   {
     std::lock_guard<std::mutex> lock(mutex_);
     queued_ = std::move(problem);  // a newer window supersedes one that has not started
-    queued_config_ = config_;
-    queued_config_.robust_loss = solve.robust_loss;
-    queued_config_.robust_loss_scale_px = solve.robust_loss_scale_px;
-    queued_config_.max_iterations = solve.max_iterations;
+    queued_config_ = solve;        // the worker reads only the loss and the iteration cap of it
   }
   wake_.notify_one();
 }

@@ -106,18 +106,21 @@ void GridDetector::buildPyramid(const cv::Mat& gray) {
   }
 }
 
-cv::Rect GridDetector::fastRegion(int cell, int l) const {
+GridDetector::SearchBounds GridDetector::searchBounds(int cell) const {
   const cv::Rect cell_px = cellRect(cell, image_size_);
   const float edge = static_cast<float>(config_.edge_threshold_px);
-  const float x_min = std::max(static_cast<float>(cell_px.x), edge);
-  const float y_min = std::max(static_cast<float>(cell_px.y), edge);
-  const float x_end = std::min(static_cast<float>(cell_px.br().x), image_size_.width - edge);
-  const float y_end = std::min(static_cast<float>(cell_px.br().y), image_size_.height - edge);
-  if (x_min >= x_end || y_min >= y_end) return cv::Rect();
+  return {std::max(static_cast<float>(cell_px.x), edge), std::max(static_cast<float>(cell_px.y), edge),
+          std::min(static_cast<float>(cell_px.br().x), image_size_.width - edge),
+          std::min(static_cast<float>(cell_px.br().y), image_size_.height - edge)};
+}
+
+cv::Rect GridDetector::fastRegion(int cell, int l) const {
+  const SearchBounds b = searchBounds(cell);
+  if (b.empty()) return cv::Rect();
   const double s = level_scale_[l];
-  return cv::Rect(cvFloor(x_min / s) - kFastMarginPx, cvFloor(y_min / s) - kFastMarginPx,
-                  cvCeil((x_end - x_min) / s) + 2 * kFastMarginPx,
-                  cvCeil((y_end - y_min) / s) + 2 * kFastMarginPx) &
+  return cv::Rect(cvFloor(b.x_min / s) - kFastMarginPx, cvFloor(b.y_min / s) - kFastMarginPx,
+                  cvCeil((b.x_end - b.x_min) / s) + 2 * kFastMarginPx,
+                  cvCeil((b.y_end - b.y_min) / s) + 2 * kFastMarginPx) &
          cv::Rect(cv::Point(0, 0), levelSize(image_size_, s));
 }
 
@@ -162,13 +165,8 @@ void GridDetector::buildPyramidRegions(const cv::Mat& gray, int cell_min_feature
 
 void GridDetector::collectCandidates(int cell, int threshold, std::vector<cv::KeyPoint>* out) {
   out->clear();
-  const cv::Rect cell_px = cellRect(cell, image_size_);
-  const float edge = static_cast<float>(config_.edge_threshold_px);
-  const float x_min = std::max(static_cast<float>(cell_px.x), edge);
-  const float y_min = std::max(static_cast<float>(cell_px.y), edge);
-  const float x_end = std::min(static_cast<float>(cell_px.br().x), image_size_.width - edge);
-  const float y_end = std::min(static_cast<float>(cell_px.br().y), image_size_.height - edge);
-  if (x_min >= x_end || y_min >= y_end) return;
+  const SearchBounds b = searchBounds(cell);
+  if (b.empty()) return;
 
   for (int l = 0; l < config_.num_levels; ++l) {
     std::vector<cv::KeyPoint>& level_out = level_candidates_[l];
@@ -182,7 +180,8 @@ void GridDetector::collectCandidates(int cell, int threshold, std::vector<cv::Ke
       const cv::Point2f full_px((kp.pt.x + roi.x) * static_cast<float>(s),
                                 (kp.pt.y + roi.y) * static_cast<float>(s));
       // The widened region overlaps the neighbours: keep only this cell's corners.
-      if (full_px.x < x_min || full_px.x >= x_end || full_px.y < y_min || full_px.y >= y_end) continue;
+      if (full_px.x < b.x_min || full_px.x >= b.x_end || full_px.y < b.y_min || full_px.y >= b.y_end)
+        continue;
       kp.pt = full_px;
       kp.octave = l;
       kp.size = static_cast<float>(config_.patch_size_px * s);
@@ -282,8 +281,8 @@ std::vector<cv::KeyPoint> GridDetector::detect(const cv::Mat& gray,
                                   existing_in_active);
   if (stats_.active_cells < std::min(min_active_cells, n_cells)) stats_.budget = 0;  // wait for more cells
   if (stats_.active_cells > 0 && stats_.budget > 0) {
-    // A replenishment in a few cells computes only their part of the pyramid (on main_brake_down 1024 the
-    // whole pyramid was 1.3 of the detection's 2.3 ms for about 4 active cells of 64).
+    // A replenishment in a few cells computes only their part of the pyramid (main_brake_down 1024 flight,
+    // one core: detection 1.35-1.55 -> 0.76-0.90 ms median over five starts, docs/visual_core.md step 7).
     if (config_.compute_descriptors || 4 * stats_.active_cells > n_cells)
       buildPyramid(gray);
     else

@@ -86,7 +86,14 @@ class GridDetector {
   /// Only the regions of levels 1.. that FAST reads for the active cells (existing_per_cell below
   /// cell_min_features), each computed from the level below.
   void buildPyramidRegions(const cv::Mat& gray, int cell_min_features);
-  /// The region of level `l` that FAST reads for `cell` (clipped to the level).
+  /// A cell's search area in full-resolution pixels: the cell less the edge_threshold_px border of the image.
+  struct SearchBounds {
+    float x_min, y_min, x_end, y_end;
+    bool empty() const { return x_min >= x_end || y_min >= y_end; }
+  };
+  SearchBounds searchBounds(int cell) const;
+  /// The region of level `l` that FAST reads for `cell`: its search area widened by FAST's margin (clipped to
+  /// the level).
   cv::Rect fastRegion(int cell, int l) const;
   void collectCandidates(int cell, int threshold, std::vector<cv::KeyPoint>* out);
   bool farFromAccepted(const cv::Point2f& px) const;
