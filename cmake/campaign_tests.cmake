@@ -51,7 +51,8 @@ endfunction()
 #                        configuration, the tables (base value, worst ratio, cliff), the plots, a second
 #                        invocation reusing every run, unknown parameters and missing datasets refused; the
 #                        --campaigns mode: the median over dispersed renders and a lost render as a cliff (on
-#                        made-up results), and a run over a campaign-shaped folder of two renders
+#                        made-up results), and a run over a campaign-shaped folder of two renders; the --starts
+#                        mode: three starts per setting (each from its own input image), their median the figure
 if(VO_TEST_DATASET)
   add_descent_tool_test(sensitivity_tool test_sensitivity_tool.py SENSITIVITY_TEST_OUTPUT 600)
   # terrain_errors_tool: scripts/terrain_errors.py (docs/terrain/README.md) on the descent's true terrain taken

@@ -2,7 +2,8 @@
 vo_eval on the VO rostests' short Lunar descent (256 px, 6 s): two parameters of four values each, the base
 values shared, the tables, the cliff column, the plots, a second invocation reusing every run, and bad input
 refused with a message; and the --campaigns mode: the median over a campaign's dispersed renders, a lost render
-counted, and an end-to-end run over a small campaign folder."""
+counted, and an end-to-end run over a small campaign folder; and the --starts mode: several starts of one
+dataset per setting, their median the figure."""
 import json
 import os
 import shutil
@@ -161,6 +162,50 @@ class CampaignMode(unittest.TestCase):
             d = json.load(f)["analysis"]["kf_track_ratio"]["per_dataset"]["approach_down_256px_ideal_6s"]
         self.assertEqual([st["runs"] for st in d["stats"]], [2, 2, 2, 2])
         self.assertGreater(os.path.getsize(os.path.join(out, "run", "plots", "kf_track_ratio.png")), 10000)
+
+
+class StartsMode(unittest.TestCase):
+    """--starts: every setting runs from several input images of the same dataset, and the median decides."""
+
+    def test_each_start_is_its_own_run_and_the_median_is_the_figure(self):
+        bin_dir = env_or_exit("PLANETARY_VO_BIN")
+        dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
+        out = os.path.join(env_or_exit("SENSITIVITY_TEST_OUTPUT"), "starts_mode")
+        shutil.rmtree(out, ignore_errors=True)
+        build = os.path.dirname(os.path.dirname(os.path.dirname(bin_dir.rstrip("/"))))
+        done = subprocess.run([PYTHON, TOOL, "--build", build, "--datasets", dataset, "--starts", "3",
+                               "--params", "kf_track_ratio", "--jobs", "2", "--output", os.path.join(out, "run")],
+                              capture_output=True, text=True, timeout=240)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        progress = [line for line in done.stdout.splitlines() if line.startswith("[")]
+        self.assertEqual(len(progress), 12, done.stdout)  # 4 settings x 3 starts
+        name = os.path.basename(dataset.rstrip("/"))
+        # Each start begins at its own input image: the first pose of start n is n images after start 0's.
+        first_t = []
+        for n in range(3):
+            with open(os.path.join(out, "run", "runs", "kf_track_ratio_0.8", f"{name}.start{n}",
+                                   "trajectory.txt")) as f:
+                rows = [line.split() for line in f if line.strip() and not line.startswith("#")]
+            first_t.append(float(rows[0][0]))
+        self.assertLess(first_t[0], first_t[1])
+        self.assertLess(first_t[1], first_t[2])
+        with open(os.path.join(out, "run", "results.json")) as f:
+            saved = json.load(f)
+        d = saved["analysis"]["kf_track_ratio"]["per_dataset"][name]
+        self.assertEqual([st["runs"] for st in d["stats"]], [3, 3, 3, 3])
+        base_runs = sorted(r["ate_percent"] for r in saved["results"] if r["setting"] == "kf_track_ratio_0.8")
+        self.assertEqual(len(base_runs), 3)
+        self.assertAlmostEqual(d["medians"][2], base_runs[1], places=12)  # 0.8 is the third value
+        with open(os.path.join(out, "run", "summary.md")) as f:
+            summary = f.read()
+        self.assertIn("over 3 starts per sequence", summary)
+        self.assertIn("--first-frame 0..2", summary)
+        self.assertIn(f"| {name} | median (lost) |", summary)
+        self.assertGreater(os.path.getsize(os.path.join(out, "run", "plots", "kf_track_ratio.png")), 10000)
+        refused = subprocess.run([PYTHON, TOOL, "--build", build, "--datasets", dataset, "--starts", "0",
+                                  "--output", os.path.join(out, "bad")], capture_output=True, text=True, timeout=60)
+        self.assertNotEqual(refused.returncode, 0)
+        self.assertIn("--starts needs at least 1", refused.stderr)
 
 
 if __name__ == "__main__":
