@@ -55,6 +55,9 @@ endfunction()
 #                        mode: three starts per setting (each from its own input image), their median the figure
 if(VO_TEST_DATASET)
   add_descent_tool_test(sensitivity_tool test_sensitivity_tool.py SENSITIVITY_TEST_OUTPUT 600)
+  # benchmark_starts: scripts/vo_benchmark.py --starts (score_starts: the row run again from later images, each
+  # start scored; the median over the starts with a lost one counted as worst)
+  add_descent_tool_test(benchmark_starts test_benchmark_starts.py BENCHMARK_STARTS_TEST_OUTPUT 300)
   # terrain_errors_tool: scripts/terrain_errors.py (docs/terrain/README.md) on the descent's true terrain taken
   # as the estimate: its slope RMSE and precision/recall equal terrain_eval's at the map's resolution, and its
   # white-noise table falls with the noise; its shading-relief report separates perfectly with the true roughness as

@@ -32,7 +32,11 @@ Groups of rows (--groups, default all):
 
 Usage (after `bash scripts/demo.sh` has built the tools):
   /usr/bin/python3 scripts/vo_benchmark.py [--groups flight,ideal,...] [--sequences a,b] [--configs default,...]
-                                            [--duration S] [--write-docs] [--output DIR]
+                                            [--duration S] [--write-docs] [--output DIR] [--starts N]
+
+--starts N also runs each monocular row from input images 1..N-1 (vo_run --first-frame; start 0 is the row
+itself) and prints the median Sim(3) ATE over the N starts, every frame and keyframes, next to DSO: a single
+run's ATE moves by up to 3x with the image it starts at (docs/visual_core.md, step 6).
 """
 import argparse
 import json
@@ -257,6 +261,66 @@ def eval_metrics(sim3, first):
     return m
 
 
+def median(values):
+    v = sorted(values)
+    n = len(v)
+    return None if n == 0 else (v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
+
+
+def score_starts(bin_dir, dataset, gt, config_path, out, sequence, starts, rerun, stamp):
+    """The run of a row again from input images 1 .. starts-1 (vo_run --first-frame; start 0 is the row's own
+    run), each in out/startN/, scored like it (Sim(3), every frame and the keyframes after optimisation).
+    Returns {"ate_percent": [...], "keyframes_ate_percent": [...], "coverage": [...]} over starts 1..N-1 (a
+    start that fails or is lost has None for its ATE). One run's ATE moves by up to 3x with the image it starts
+    at (docs/visual_core.md, step 6): the median over a few starts is the figure to compare."""
+    scores = {"ate_percent": [], "keyframes_ate_percent": [], "coverage": []}
+    vo_run = os.path.join(bin_dir, "vo_run")
+    for n in range(1, starts):
+        d = os.path.join(out, f"start{n}")
+        os.makedirs(d, exist_ok=True)
+        traj, keyframes = os.path.join(d, "trajectory.txt"), os.path.join(d, "keyframes.txt")
+        log = os.path.join(d, "vo_run.log")
+        rc, _ = run_vo([vo_run, "--dataset", dataset, "--config", config_path, "--first-frame", str(n),
+                        "--output", traj, "--output-keyframes", keyframes], log, traj, [stamp, config_path, vo_run],
+                       rerun)
+        coverage = parse_vo_run_log(log).get("coverage", 0.0) if rc == 0 else 0.0
+        ates = []
+        for est, name in ((traj, "eval_sim3.json"), (keyframes, "eval_keyframes_sim3.json")):
+            js = os.path.join(d, name)
+            ok = rc == 0 and count_lines(est) >= 3 and run(
+                [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", est] + eval_frame_args(sequence) +
+                ["--align", "sim3", "--json", js], js.replace(".json", ".log"))[0] == 0
+            if ok:
+                with open(js) as f:
+                    ates.append(json.load(f)["ate_rmse_percent_of_path"])
+            else:
+                ates.append(None)
+        lost = coverage < MIN_COVERAGE
+        scores["ate_percent"].append(None if lost else ates[0])
+        scores["keyframes_ate_percent"].append(None if lost else ates[1])
+        scores["coverage"].append(coverage)
+    return scores
+
+
+def fmt_starts(r, key):
+    """'median (min-max)' of a row's ATE over its starts (start 0 and --starts' others); a lost start counts as
+    worst; '-' without starts."""
+    first = r.get(key) if r.get("coverage", 0.0) >= MIN_COVERAGE else None
+    others = r.get("starts", {}).get(key)
+    if others is None:
+        return "-"
+    values = [first] + others
+    valid = sorted(v for v in values if v is not None)
+    lost = len(values) - len(valid)
+    if not valid:
+        return "lost"
+    ordered = valid + [float("inf")] * lost
+    m = median(ordered)
+    text = "lost" if m == float("inf") else f"{m:.4f}"
+    text += f" ({valid[0]:.4f}-{valid[-1]:.4f}" + (f", {lost} lost" if lost else "") + ")"
+    return text
+
+
 def peers_table():
     """Sim(3) ATE % of DSO, SVO 1 and ORB-SLAM3 on the 512x512 ideal renders, from peer-results.md."""
     path = os.path.join(ROOT, "..", "shared", "docs", "peer-results.md")
@@ -287,10 +351,16 @@ def main():
     ap.add_argument("--thesis-configs", action="store_true",
                     help="also run thesis_F, thesis_E, thesis_H on the ideal 1024 rows (thesis Table 4.8)")
     ap.add_argument("--write-docs", action="store_true", help="write docs/results.md and its plots")
+    ap.add_argument("--starts", type=int, default=1,
+                    help="also run each monocular row from input images 1..N-1 (vo_run --first-frame) and give the "
+                         "median Sim(3) ATE over the N starts next to the peers (one run moves by up to 3x with "
+                         "where it starts)")
     ap.add_argument("--rerun-vo", action="store_true",
                     help="run vo_run even where its trajectory is current (same dataset, configuration and "
                          "binary); by default such a run is reused and only scored again")
     args = ap.parse_args()
+    if args.starts < 1:
+        sys.exit(f"vo_benchmark: --starts needs at least 1, got {args.starts}")
 
     bin_dir = os.path.join(args.build, "devel", "lib", "planetary_vo")
     for tool in ("lunar_render", "vo_run", "vo_eval"):
@@ -375,6 +445,9 @@ def main():
                         first = json.load(f)
             r.update(eval_metrics(sim3, first))
             r["mark"] = mark(r.get("ate_percent"), r.get("drift_deg") or 0.0, r["coverage"])
+            if args.starts > 1 and not row.get("metric"):
+                r["starts"] = score_starts(bin_dir, dataset, gt, config_path, out, row["sequence"], args.starts,
+                                           args.rerun_vo, stamp)
             results.append(r)
             print(format_row(r), flush=True)
 
@@ -461,6 +534,18 @@ def format_tables(results):
             lines.append(f"| {r['sequence']} | {image} | {sensors} | {r['config']} | " + " | ".join(cells) + " |")
     peers = peers_table()
     ideal512 = [r for r in results if r["group"] == "ideal512" and r["config"] == "default"]
+    with_starts = [r for r in results if r.get("starts") and r["config"] == "default"]
+    if with_starts:
+        n = 1 + len(with_starts[0]["starts"]["ate_percent"])
+        lines += ["", f"Over {n} starts (vo_run --first-frame 0..{n - 1}: the same images, the run started at a "
+                  "later one; Sim(3) ATE % of the path, median (range); a lost start counts as worst):", "",
+                  "| sequence | image | sensors | every frame | keyframes after optimisation | DSO (peer-results.md) |",
+                  "|---|---|---|---|---|---|"]
+        for r in with_starts:
+            image, sensors = conditions(r)[:2]
+            dso = peers.get(r["sequence"], {}).get("DSO", "-") if r["group"] == "ideal512" else "-"
+            lines.append(f"| {r['sequence']} | {image} | {sensors} | {fmt_starts(r, 'ate_percent')} | "
+                         f"{fmt_starts(r, 'keyframes_ate_percent')} | {dso} |")
     if ideal512:
         lines += ["", "Peers on the same 512x512 ideal images (Sim3 ATE % of the path; peers from "
                   "../shared/docs/peer-results.md, measured outside the project; ours measured by this run):", "",
