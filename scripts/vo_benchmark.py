@@ -261,6 +261,19 @@ def eval_metrics(sim3, first):
     return m
 
 
+def eval_sim3(bin_dir, gt, est, sequence, json_path, log_path, extra=()):
+    """vo_eval --align sim3 of the trajectory `est` (at least 3 poses) into json_path; its JSON, or None when the
+    trajectory is too short or vo_eval fails."""
+    if count_lines(est) < 3:
+        return None
+    cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", est] + eval_frame_args(sequence) + \
+        ["--align", "sim3", "--json", json_path] + list(extra)
+    if run(cmd, log_path)[0] != 0:
+        return None
+    with open(json_path) as f:
+        return json.load(f)
+
+
 def median(values):
     v = sorted(values)
     n = len(v)
@@ -285,16 +298,10 @@ def score_starts(bin_dir, dataset, gt, config_path, out, sequence, starts, rerun
                        rerun)
         coverage = parse_vo_run_log(log).get("coverage", 0.0) if rc == 0 else 0.0
         ates = []
-        for est, name in ((traj, "eval_sim3.json"), (keyframes, "eval_keyframes_sim3.json")):
-            js = os.path.join(d, name)
-            ok = rc == 0 and count_lines(est) >= 3 and run(
-                [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", est] + eval_frame_args(sequence) +
-                ["--align", "sim3", "--json", js], js.replace(".json", ".log"))[0] == 0
-            if ok:
-                with open(js) as f:
-                    ates.append(json.load(f)["ate_rmse_percent_of_path"])
-            else:
-                ates.append(None)
+        for est, name in ((traj, "eval_sim3"), (keyframes, "eval_keyframes_sim3")):
+            scored = eval_sim3(bin_dir, gt, est, sequence, os.path.join(d, name + ".json"),
+                               os.path.join(d, name + ".log")) if rc == 0 else None
+            ates.append(scored["ate_rmse_percent_of_path"] if scored else None)
         lost = coverage < MIN_COVERAGE
         scores["ate_percent"].append(None if lost else ates[0])
         scores["keyframes_ate_percent"].append(None if lost else ates[1])
@@ -417,23 +424,17 @@ def main():
             if rc == 0 and count_lines(traj) >= 3:
                 common = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj]
                 common += eval_frame_args(row["sequence"])
-                sim3_json, first_json = os.path.join(out, "eval_sim3.json"), os.path.join(out, "eval_first.json")
-                cmd = common + ["--align", "sim3", "--json", sim3_json]
-                if args.write_docs:
-                    cmd += ["--plot", os.path.join(out, "plots")]
-                if run(cmd, os.path.join(out, "vo_eval_sim3.log"))[0] == 0:
-                    with open(sim3_json) as f:
-                        sim3 = json.load(f)
+                first_json = os.path.join(out, "eval_first.json")
+                sim3 = eval_sim3(bin_dir, gt, traj, row["sequence"], os.path.join(out, "eval_sim3.json"),
+                                 os.path.join(out, "vo_eval_sim3.log"),
+                                 ["--plot", os.path.join(out, "plots")] if args.write_docs else [])
                 # The keyframes with their last estimate (not causal), scored like DSO's result.txt. A run reused
                 # from before --output-keyframes existed has no such file.
-                kf_json = os.path.join(out, "eval_keyframes_sim3.json")
-                kf_cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", keyframes] + \
-                    eval_frame_args(row["sequence"]) + ["--align", "sim3", "--json", kf_json]
-                kf_log = os.path.join(out, "vo_eval_keyframes_sim3.log")
-                if count_lines(keyframes) >= 3 and run(kf_cmd, kf_log)[0] == 0:
-                    with open(kf_json) as f:
-                        r["keyframes_ate_percent"] = json.load(f)["ate_rmse_percent_of_path"]
-                        r["keyframes_posed"] = count_lines(keyframes)
+                kf = eval_sim3(bin_dir, gt, keyframes, row["sequence"], os.path.join(out, "eval_keyframes_sim3.json"),
+                               os.path.join(out, "vo_eval_keyframes_sim3.log"))
+                if kf:
+                    r["keyframes_ate_percent"] = kf["ate_rmse_percent_of_path"]
+                    r["keyframes_posed"] = count_lines(keyframes)
                 # A metric estimate handed its first pose is scored as guidance reads it: no alignment at all.
                 align = ["--align", "none"] if row.get("metric") else \
                     ["--align", "first", "--first-scale-window", str(FIRST_SCALE_WINDOW_S)]

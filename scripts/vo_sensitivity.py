@@ -38,7 +38,6 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import time
 
@@ -147,12 +146,10 @@ def run_one(job):
     r = {"setting": setting, "dataset": name, "vo_run_rc": rc, "reused": reused, "coverage": 0.0,
          "seconds": time.monotonic() - started}
     r.update(bench.parse_vo_run_log(log))
-    if rc == 0 and bench.count_lines(traj) >= 3:
-        cmd = [os.path.join(bin_dir, "vo_eval"), "--gt", gt, "--est", traj, "--align", "sim3", "--json", eval_json]
-        cmd += bench.eval_frame_args(sequence)
-        if bench.run(cmd, os.path.join(run_dir, "vo_eval.log"))[0] == 0:
-            with open(eval_json) as f:
-                r.update(bench.eval_metrics(json.load(f), None))
+    scored = bench.eval_sim3(bin_dir, gt, traj, sequence, eval_json, os.path.join(run_dir, "vo_eval.log")) \
+        if rc == 0 else None
+    if scored:
+        r.update(bench.eval_metrics(scored, None))
     r["ok"] = r.get("ate_percent") is not None and r["coverage"] >= bench.MIN_COVERAGE
     return r
 
@@ -291,8 +288,8 @@ def summary_families(table, families, args, results, wall_s):
             lines.append(f"| {f} | median (lost) | " + " | ".join(
                 ate_cell(st["median"]) + (f" ({st['lost']})" if st["lost"] else "") for st in d["stats"])
                 + f" | {d['best_value']:g} |")
-            lines.append(f"| | 90th percentile | " + " | ".join(ate_cell(st["p90"]) for st in d["stats"]) + " | |")
-            lines.append(f"| | ratio to best | " + " | ".join(fmt_ratio(r) for r in d["ratios"]) + " | |")
+            lines.append("| | 90th percentile | " + " | ".join(ate_cell(st["p90"]) for st in d["stats"]) + " | |")
+            lines.append("| | ratio to best | " + " | ".join(fmt_ratio(r) for r in d["ratios"]) + " | |")
         lines.append("")
     return "\n".join(lines) + "\n"
 

@@ -39,6 +39,12 @@ def env_or_exit(name):
     return value
 
 
+def first_pose_time(trajectory_path):
+    """Time stamp of the first pose of a TUM-format trajectory (comment lines skipped)."""
+    with open(trajectory_path) as f:
+        return float(next(line for line in f if line.strip() and not line.startswith("#")).split()[0])
+
+
 def bin_dir():
     d = os.environ.get("PLANETARY_VO_BIN")
     if not d or not os.path.isfile(os.path.join(d, "vo_run")):

@@ -8,16 +8,11 @@ import sys
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from campaign_test_util import env_or_exit  # noqa: E402
+from campaign_test_util import env_or_exit, first_pose_time  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 import vo_benchmark  # noqa: E402
-
-
-def first_time(path):
-    with open(path) as f:
-        return float(next(line for line in f if line.strip() and not line.startswith("#")).split()[0])
 
 
 class BenchmarkStarts(unittest.TestCase):
@@ -38,8 +33,8 @@ class BenchmarkStarts(unittest.TestCase):
             self.assertGreater(kf, 0.0)
             self.assertLess(kf, 5.0)
         # Start n begins n images later: its first pose is later than start n-1's.
-        t1 = first_time(os.path.join(out, "start1", "trajectory.txt"))
-        t2 = first_time(os.path.join(out, "start2", "trajectory.txt"))
+        t1 = first_pose_time(os.path.join(out, "start1", "trajectory.txt"))
+        t2 = first_pose_time(os.path.join(out, "start2", "trajectory.txt"))
         self.assertLess(t1, t2)
         with open(os.path.join(out, "start2", "eval_sim3.json")) as f:
             self.assertAlmostEqual(json.load(f)["ate_rmse_percent_of_path"], scores["ate_percent"][1], places=12)

@@ -12,7 +12,7 @@ import sys
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from campaign_test_util import env_or_exit  # noqa: E402
+from campaign_test_util import env_or_exit, first_pose_time  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "scripts"))
@@ -24,23 +24,25 @@ PYTHON = "/usr/bin/python3"
 PARAMS = "lk_levels,kf_track_ratio"  # 4 + 4 settings; each has the base value: 7 distinct configurations
 
 
+def run_sensitivity(args, timeout=240):
+    """scripts/vo_sensitivity.py with this build's tools (--build is the folder above devel/lib/planetary_vo)."""
+    build = os.path.dirname(os.path.dirname(os.path.dirname(env_or_exit("PLANETARY_VO_BIN").rstrip("/"))))
+    return subprocess.run([PYTHON, TOOL, "--build", build] + args, capture_output=True, text=True, timeout=timeout)
+
+
 class SensitivityTool(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.bin = env_or_exit("PLANETARY_VO_BIN")
         cls.dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
         cls.out = os.path.join(env_or_exit("SENSITIVITY_TEST_OUTPUT"))
         shutil.rmtree(cls.out, ignore_errors=True)
-        # --build takes the folder above devel/lib/planetary_vo.
-        cls.build = os.path.dirname(os.path.dirname(os.path.dirname(cls.bin.rstrip("/"))))
         cls.first = cls.run_tool(["--datasets", cls.dataset, "--params", PARAMS, "--jobs", "2",
                                   "--output", os.path.join(cls.out, "run"),
                                   "--write-docs", os.path.join(cls.out, "docs")])
 
     @classmethod
     def run_tool(cls, args):
-        return subprocess.run([PYTHON, TOOL, "--build", cls.build] + args, capture_output=True, text=True,
-                              timeout=240)
+        return run_sensitivity(args)
 
     def test_runs_every_setting_once(self):
         self.assertEqual(self.first.returncode, 0, self.first.stdout + self.first.stderr)
@@ -130,7 +132,6 @@ class CampaignMode(unittest.TestCase):
     """--campaigns over a vo_campaign-shaped folder of two renders (both the test descent) and one unfinished."""
 
     def test_every_completed_render_runs_and_the_summary_gives_medians(self):
-        bin_dir = env_or_exit("PLANETARY_VO_BIN")
         dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
         out = os.path.join(env_or_exit("SENSITIVITY_TEST_OUTPUT"), "campaign_mode")
         shutil.rmtree(out, ignore_errors=True)
@@ -146,10 +147,8 @@ class CampaignMode(unittest.TestCase):
         with open(os.path.join(campaign, "runs.json"), "w") as f:
             json.dump({"name": "tiny", "sequence": "approach_down", "size_px": 256, "sensors": "ideal",
                        "duration_s": 6.0, "runs": runs}, f)
-        build = os.path.dirname(os.path.dirname(os.path.dirname(bin_dir.rstrip("/"))))
-        done = subprocess.run([PYTHON, TOOL, "--build", build, "--campaigns", campaign, "--params", "kf_track_ratio",
-                               "--jobs", "2", "--output", os.path.join(out, "run")], capture_output=True, text=True,
-                              timeout=240)
+        done = run_sensitivity(["--campaigns", campaign, "--params", "kf_track_ratio", "--jobs", "2",
+                                "--output", os.path.join(out, "run")])
         self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
         progress = [line for line in done.stdout.splitlines() if line.startswith("[")]
         self.assertEqual(len(progress), 8, done.stdout)  # 4 settings x the 2 completed renders
@@ -168,25 +167,18 @@ class StartsMode(unittest.TestCase):
     """--starts: every setting runs from several input images of the same dataset, and the median decides."""
 
     def test_each_start_is_its_own_run_and_the_median_is_the_figure(self):
-        bin_dir = env_or_exit("PLANETARY_VO_BIN")
         dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
         out = os.path.join(env_or_exit("SENSITIVITY_TEST_OUTPUT"), "starts_mode")
         shutil.rmtree(out, ignore_errors=True)
-        build = os.path.dirname(os.path.dirname(os.path.dirname(bin_dir.rstrip("/"))))
-        done = subprocess.run([PYTHON, TOOL, "--build", build, "--datasets", dataset, "--starts", "3",
-                               "--params", "kf_track_ratio", "--jobs", "2", "--output", os.path.join(out, "run")],
-                              capture_output=True, text=True, timeout=240)
+        done = run_sensitivity(["--datasets", dataset, "--starts", "3", "--params", "kf_track_ratio", "--jobs", "2",
+                                "--output", os.path.join(out, "run")])
         self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
         progress = [line for line in done.stdout.splitlines() if line.startswith("[")]
         self.assertEqual(len(progress), 12, done.stdout)  # 4 settings x 3 starts
         name = os.path.basename(dataset.rstrip("/"))
         # Each start begins at its own input image: the first pose of start n is n images after start 0's.
-        first_t = []
-        for n in range(3):
-            with open(os.path.join(out, "run", "runs", "kf_track_ratio_0.8", f"{name}.start{n}",
-                                   "trajectory.txt")) as f:
-                rows = [line.split() for line in f if line.strip() and not line.startswith("#")]
-            first_t.append(float(rows[0][0]))
+        first_t = [first_pose_time(os.path.join(out, "run", "runs", "kf_track_ratio_0.8", f"{name}.start{n}",
+                                                "trajectory.txt")) for n in range(3)]
         self.assertLess(first_t[0], first_t[1])
         self.assertLess(first_t[1], first_t[2])
         with open(os.path.join(out, "run", "results.json")) as f:
@@ -202,8 +194,8 @@ class StartsMode(unittest.TestCase):
         self.assertIn("--first-frame 0..2", summary)
         self.assertIn(f"| {name} | median (lost) |", summary)
         self.assertGreater(os.path.getsize(os.path.join(out, "run", "plots", "kf_track_ratio.png")), 10000)
-        refused = subprocess.run([PYTHON, TOOL, "--build", build, "--datasets", dataset, "--starts", "0",
-                                  "--output", os.path.join(out, "bad")], capture_output=True, text=True, timeout=60)
+        refused = run_sensitivity(["--datasets", dataset, "--starts", "0", "--output", os.path.join(out, "bad")],
+                                  timeout=60)
         self.assertNotEqual(refused.returncode, 0)
         self.assertIn("--starts needs at least 1", refused.stderr)
 
