@@ -158,6 +158,8 @@ void mapFields(C& c, V& v) {
   v("min_observations", c.min_observations, 2, 1000);
   v("cull_min_found_ratio", c.cull_min_found_ratio, 0.0, 1.0);
   v("window_keyframes", c.window_keyframes, 2, 1000);
+  v("keyframe_features", c.keyframe_features, 0, 100000);
+  v("keyframe_anchor_max_age", c.keyframe_anchor_max_age, 1, 100000);
 }
 
 template <class C, class V>

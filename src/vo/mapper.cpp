@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <utility>
+#include <vector>
 
 #include "planetary_vo/geometry/triangulation.h"
 
@@ -30,16 +31,63 @@ KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world
                                          const std::vector<uint64_t>& track_ids,
                                          const std::vector<Eigen::Vector2d>& px,
                                          const MapAssociations& associations, const PinholeCamera& camera,
-                                         Map* map) const {
+                                         Map* map, const KeyframeTracks* keyframe_tracks) const {
   KeyframeInsertion out;
-  out.keyframe_id = map->addKeyframe(timestamp_s, T_world_cam, track_ids, px);
+  // No PnP saw the map-only tracks: the keyframe's pose checks those that carry a point. One that reprojects
+  // too far from it has drifted off its point: it is detached and left out of the keyframe.
+  std::vector<uint64_t> merged_ids;
+  std::vector<Eigen::Vector2d> merged_px;
+  std::vector<std::pair<uint64_t, Eigen::Vector2d>> observed;  // (point id, pixel)
+  const bool with_keyframe_tracks = keyframe_tracks != nullptr && !keyframe_tracks->ids.empty();
+  if (with_keyframe_tracks) {
+    merged_ids = track_ids;
+    merged_px = px;
+    const Pose T_cam_world = T_world_cam.inverse();
+    for (size_t i = 0; i < keyframe_tracks->ids.size(); ++i) {
+      const uint64_t id = keyframe_tracks->ids[i];
+      if (const MapPoint* point = map->pointForTrack(id)) {
+        const Eigen::Vector3d p_cam = T_cam_world * point->p_world;
+        if (p_cam.z() <= 0.0 ||
+            (camera.project(p_cam) - keyframe_tracks->px[i]).norm() > config_.max_reprojection_error_px) {
+          map->detachTrack(id);
+          out.rejected_keyframe_tracks.push_back(id);
+          continue;
+        }
+        observed.emplace_back(point->id, keyframe_tracks->px[i]);
+      }
+      merged_ids.push_back(id);
+      merged_px.push_back(keyframe_tracks->px[i]);
+    }
+    // The frame tracks, then the map-only ones (ids above them): ascending, as addKeyframe and the lookups
+    // below need; sorted here should a caller give other ids.
+    if (!std::is_sorted(merged_ids.begin(), merged_ids.end())) {
+      std::vector<size_t> order(merged_ids.size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(),
+                [&](size_t a, size_t b) { return merged_ids[a] < merged_ids[b]; });
+      std::vector<uint64_t> ids(order.size());
+      std::vector<Eigen::Vector2d> pxs(order.size());
+      for (size_t i = 0; i < order.size(); ++i) {
+        ids[i] = merged_ids[order[i]];
+        pxs[i] = merged_px[order[i]];
+      }
+      merged_ids.swap(ids);
+      merged_px.swap(pxs);
+    }
+  }
+  const std::vector<uint64_t>& all_ids = with_keyframe_tracks ? merged_ids : track_ids;
+  const std::vector<Eigen::Vector2d>& all_px = with_keyframe_tracks ? merged_px : px;
+
+  out.keyframe_id = map->addKeyframe(timestamp_s, T_world_cam, all_ids, all_px);
   for (size_t i = 0; i < associations.size(); ++i) {
     if (!associations.inlier[i]) continue;
     const int k = findSorted(track_ids, associations.track_ids[i]);
     if (k >= 0) map->addObservation(associations.point_ids[i], out.keyframe_id, px[static_cast<size_t>(k)]);
   }
-  out.points_created = triangulateNewPoints(out.keyframe_id, track_ids, px, camera, map);
-  map->retainTracks(track_ids);
+  for (const auto& o : observed) map->addObservation(o.first, out.keyframe_id, o.second);
+  out.keyframe_track_observations = static_cast<int>(observed.size());
+  out.points_created = triangulateNewPoints(out.keyframe_id, all_ids, all_px, camera, map);
+  map->retainTracks(all_ids);
   map->dropKeyframesOutsideWindow(config_.window_keyframes);
   out.points_culled = map->cull(config_);
   return out;

@@ -101,6 +101,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       pnp_tracker_(config.pnp, config.bundle_adjustment),
       keyframe_policy_(config.keyframe),
       mapper_(config.map),
+      keyframe_tracker_(config.map.keyframe_features, config.map.keyframe_anchor_max_age, config.tracker,
+                        config.detector),
       altimeter_(config.altimeter),
       inertial_(config.imu),
       frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff,
@@ -125,6 +127,7 @@ void Pipeline::reset() {
   }
   images_since_ba_submit_ = -1;
   tracker_.reset();
+  keyframe_tracker_.reset();
   frozen_detector_.reset();
   exposure_compensator_.reset();
   map_.clear();
@@ -161,6 +164,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
 
 void Pipeline::restartTracking() {
   tracker_.reset();
+  keyframe_tracker_.reset();
   frozen_detector_.reset();
   exposure_compensator_.reset();
   // Continue from the current pose as after a loss, so the trajectory does not jump.
@@ -340,6 +344,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
     result.message = what.str();
   }
   trackFeatures(tracked, &result);
+  current_image_ = tracked;  // for the map-only features of a keyframe (released below)
   if (images_since_ba_submit_ >= 0 &&
       (++images_since_ba_submit_ >= config_.bundle_adjustment.collect_after_images ||
        config_.pipeline.trajectory_mode == TrajectoryMode::kUnitStepConcatenation))
@@ -363,6 +368,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.num_map_points = static_cast<int>(map_.numPoints());
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
   result.map_events = map_.takeEvents();
+  current_image_.release();
   result.times.total_ms = msSince(start);
   if (result.times.pose_ms == 0.0) result.times.pose_ms = result.times.total_ms;
   return result;
@@ -615,6 +621,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
   if (const std::optional<NavState> carried = newestInertialState()) carried_inertial_ = carried;
   if (auto carried = newestCovariance()) carried_covariance_ = carried;
   map_.clear();
+  keyframe_tracker_.reset();
   const uint64_t kf_ref =
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
   const uint64_t kf_cur = map_.addKeyframe(timestamp_s_, T_world_cur, track_ids_, px_);
@@ -721,7 +728,12 @@ void Pipeline::maybeInsertKeyframe(FrameResult* result) {
   const Eigen::Matrix3d R_cur_kf = result->T_world_cam.linear().transpose() * last.T_world_cam.linear();
   KeyframeCandidate candidate;
   candidate.frames_since_keyframe = frames_since_keyframe_;
-  candidate.tracks_at_keyframe = static_cast<int>(last.px_by_track.size());
+  // The frame tracks the keyframe held (not its map-only tracks, whose ids are above theirs).
+  candidate.tracks_at_keyframe =
+      config_.map.keyframe_features > 0
+          ? static_cast<int>(std::count_if(last.px_by_track.begin(), last.px_by_track.end(),
+                                           [](const auto& e) { return e.first < KeyframeTracker::kFirstId; }))
+          : static_cast<int>(last.px_by_track.size());
   candidate.surviving_tracks = static_cast<int>(bearings_kf_.size());
   candidate.median_parallax_deg =
       KeyframePolicy::medianParallaxDeg(bearings_kf_, bearings_cur_, R_cur_kf, &scratch_);
@@ -742,11 +754,36 @@ void Pipeline::insertKeyframe(FrameResult* result) {
     result->times.pose_ms = msSince(frame_start_);
   }
   const Clock::time_point start = Clock::now();
-  const KeyframeInsertion insertion =
-      mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_, assoc_, camera_, &map_);
+  KeyframeTracks keyframe_tracks;
+  std::string keyframe_note;
+  if (config_.map.keyframe_features > 0 && !current_image_.empty()) {
+    // The map-only features (keyframe_tracker.h), predicted by the frame tracks' motion since the last
+    // keyframe (distorted pixels, in track_ids_ order).
+    std::vector<cv::Point2f> live_px(track_ids_.size());
+    for (size_t k = 0; k < track_ids_.size(); ++k) live_px[k] = distorted_px_[order_[k]];
+    const KeyframeTrackingResult tracked = keyframe_tracker_.track(current_image_, track_ids_, live_px);
+    keyframe_tracks.ids = keyframe_tracker_.ids();
+    const std::vector<cv::Point2f>& distorted = keyframe_tracker_.px();
+    const std::vector<cv::Point2f> ideal =
+        camera_.hasDistortion() ? camera_.undistortPixels(distorted) : distorted;
+    keyframe_tracks.px.resize(ideal.size());
+    for (size_t i = 0; i < ideal.size(); ++i) keyframe_tracks.px[i] = Eigen::Vector2d(ideal[i].x, ideal[i].y);
+    result->times.keyframe_tracking_ms = tracked.ms;
+    keyframe_note = "; map-only tracks " + std::to_string(tracked.num_tracked) + " (" +
+                    std::to_string(tracked.num_aligned) + " aligned, +" + std::to_string(tracked.num_new) +
+                    ", -" + std::to_string(tracked.num_lost) + ")";
+  }
+  const KeyframeInsertion insertion = mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_,
+                                                             px_, assoc_, camera_, &map_, &keyframe_tracks);
+  keyframe_tracker_.removeTracks(insertion.rejected_keyframe_tracks);
   frames_since_keyframe_ = 0;
-  result->message += ": +" + std::to_string(insertion.points_created) + " points, -" +
-                     std::to_string(insertion.points_culled) + " culled";
+  result->message +=
+      ": +" + std::to_string(insertion.points_created) + " points, -" +
+      std::to_string(insertion.points_culled) + " culled" + keyframe_note +
+      (keyframe_note.empty()
+           ? std::string()
+           : ", " + std::to_string(insertion.keyframe_track_observations) + " observe their point, " +
+                 std::to_string(insertion.rejected_keyframe_tracks.size()) + " rejected");
   if (config_.altimeter.enabled) {
     if (const std::optional<AltimeterSample> reading = altimeter_.readingAt(timestamp_s_))
       map_.keyframe(insertion.keyframe_id)->altimeter_range_m = reading->slant_range_m;

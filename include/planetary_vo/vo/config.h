@@ -163,6 +163,13 @@ struct MapConfig {
   int min_observations = 2;                     ///< keyframes that must see a point for it to be kept
   double cull_min_found_ratio = 0.25;           ///< culled when found / predicted-visible falls below this
   int window_keyframes = 10;                    ///< keyframes in the local map used for tracking
+  /// Map-only features followed from keyframe to keyframe (keyframe_tracker.h) on top of the frame tracker's
+  /// detector.num_features: more points for the map and the bundle adjustment, none for the per-frame pose.
+  /// 0 = none.
+  int keyframe_features = 0;
+  /// A map-only track's anchor patch is cut again after this many keyframes (the view changes the ground's
+  /// appearance; 1 = each keyframe aligns the previous one's patch).
+  int keyframe_anchor_max_age = 3;
 };
 
 /// Frame-to-map pose by EPnP inside RANSAC.

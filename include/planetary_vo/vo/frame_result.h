@@ -58,7 +58,9 @@ struct StageTimesMs {
   double motion_ms =
       0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
-  double ba_ms = 0.0;       ///< synchronous bundle adjustment, or applying an asynchronous result
+  /// part of mapping_ms: the map-only features of a keyframe (map.keyframe_features; keyframe_tracker.h)
+  double keyframe_tracking_ms = 0.0;
+  double ba_ms = 0.0;  ///< synchronous bundle adjustment, or applying an asynchronous result
   /// The bundle adjustment's own CPU time (BaSummary::solve_cpu_ms) of the adjustment this frame ran or
   /// applied: in the optimiser thread when asynchronous (not part of this frame's other times, except as far
   /// as the frame waited for it); 0 on frames without one. CPU, not wall time: a background solve sharing

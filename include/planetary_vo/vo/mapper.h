@@ -1,10 +1,11 @@
 #pragma once
 /// @file mapper.h
 /// Stage 5b: what happens to the map when a frame becomes a keyframe. The keyframe is appended with the ideal
-/// pixels of all its live tracks; the map points that PnP confirmed in it gain an observation; every track
-/// without a point is triangulated against the oldest kept keyframe that saw it (the widest baseline) and the
-/// new point is observed by every kept keyframe that agrees with it; dead tracks are detached, the window is
-/// trimmed and bad points are culled. Bundle adjustment of the result is the pipeline's next step.
+/// pixels of all its live tracks (and of its map-only tracks, keyframe_tracker.h); the map points that PnP
+/// confirmed in it gain an observation; every track without a point is triangulated against the oldest kept
+/// keyframe that saw it (the widest baseline) and the new point is observed by every kept keyframe that
+/// agrees with it; dead tracks are detached, the window is trimmed and bad points are culled. Bundle
+/// adjustment of the result is the pipeline's next step.
 ///
 /// Stateless apart from its settings; the map and the camera are passed in, so a camera change needs nothing
 /// here.
@@ -33,10 +34,22 @@ struct MapAssociations {
   size_t size() const { return point_ids.size(); }
 };
 
+/// A keyframe's map-only tracks (keyframe_tracker.h): parallel arrays, ids ascending and above every frame
+/// track id, ideal pixels.
+struct KeyframeTracks {
+  std::vector<uint64_t> ids;
+  std::vector<Eigen::Vector2d> px;
+};
+
 struct KeyframeInsertion {
   uint64_t keyframe_id = 0;
   int points_created = 0;
   int points_culled = 0;
+  /// Map-only tracks whose point the keyframe now observes (they reproject within max_reprojection_error_px).
+  int keyframe_track_observations = 0;
+  /// Map-only tracks that reproject farther than that from their point: detached from it; the caller drops
+  /// them from the keyframe tracker.
+  std::vector<uint64_t> rejected_keyframe_tracks;
 };
 
 class Mapper {
@@ -46,11 +59,14 @@ class Mapper {
   /// Adds the frame as the newest keyframe of `map` and updates the map as described above.
   /// @param track_ids the frame's live tracks, ascending; @param px their ideal pixels.
   /// @param associations the frame's PnP associations (only the inliers gain an observation).
+  /// @param keyframe_tracks the keyframe's map-only tracks, or nullptr: they join the keyframe like the frame
+  ///        tracks (and are triangulated like them); one that carries a point gives it an observation when it
+  ///        reprojects within max_reprojection_error_px of the keyframe's pose, else it is detached.
   KeyframeInsertion insertKeyframe(double timestamp_s, const Pose& T_world_cam,
                                    const std::vector<uint64_t>& track_ids,
                                    const std::vector<Eigen::Vector2d>& px,
-                                   const MapAssociations& associations, const PinholeCamera& camera,
-                                   Map* map) const;
+                                   const MapAssociations& associations, const PinholeCamera& camera, Map* map,
+                                   const KeyframeTracks* keyframe_tracks = nullptr) const;
 
  private:
   int triangulateNewPoints(uint64_t new_keyframe_id, const std::vector<uint64_t>& track_ids,

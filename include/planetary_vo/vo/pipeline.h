@@ -50,6 +50,7 @@
 #include "planetary_vo/vo/initializer.h"
 #include "planetary_vo/vo/input_check.h"
 #include "planetary_vo/vo/keyframe_policy.h"
+#include "planetary_vo/vo/keyframe_tracker.h"
 #include "planetary_vo/vo/klt_tracker.h"
 #include "planetary_vo/vo/map.h"
 #include "planetary_vo/vo/mapper.h"
@@ -236,6 +237,8 @@ class Pipeline {
   PnpTracker pnp_tracker_;
   KeyframePolicy keyframe_policy_;
   Mapper mapper_;
+  KeyframeTracker keyframe_tracker_;  ///< map.keyframe_features > 0
+  cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
   Map map_;
   AltimeterAiding altimeter_;
   InertialAiding inertial_;

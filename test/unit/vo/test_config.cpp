@@ -111,6 +111,8 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_EQ(c.map.min_observations, 3);
   EXPECT_DOUBLE_EQ(c.map.cull_min_found_ratio, 0.3);
   EXPECT_EQ(c.map.window_keyframes, 12);
+  EXPECT_EQ(c.map.keyframe_features, 250);
+  EXPECT_EQ(c.map.keyframe_anchor_max_age, 2);
 
   EXPECT_DOUBLE_EQ(c.pnp.ransac_reprojection_error_px, 4.0);
   EXPECT_EQ(c.pnp.ransac_iterations, 200);

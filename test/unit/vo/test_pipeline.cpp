@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
@@ -161,6 +162,72 @@ TEST(Pipeline, MapModeTracksAPlanarDescent) {
       EXPECT_LT(rpe.rotation_deg.rmse, 0.5);
     }
   }
+}
+
+/// Distance of each point from the least-squares plane through `plane_points`.
+std::vector<double> distancesFromPlane(const std::vector<Eigen::Vector3d>& plane_points,
+                                       const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : plane_points) centroid += p;
+  centroid /= static_cast<double>(plane_points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : plane_points) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::Vector3d normal =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
+  std::vector<double> d;
+  for (const Eigen::Vector3d& p : points) d.push_back(std::abs(normal.dot(p - centroid)));
+  return d;
+}
+
+// map.keyframe_features: the map-only tracks (keyframe_tracker.h) put points in the map that no frame track
+// carries, and on this planar ground they lie on the plane of the frame tracks' points (a wrong pixel, e.g.
+// distorted for ideal, or a track on the wrong keyframe, would throw them off it); the trajectory stays
+// accurate. Without the option there is no such point (the test fails when it is switched off).
+TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) {
+  VoConfig config;
+  config.map.keyframe_features = 300;
+  static const cv::Mat texture = groundTexture();
+  const PinholeCamera camera = test::planarDescentCamera();
+  Pipeline pipeline(config, camera);
+  SequenceRun run;
+  int keyframes_with_map_only_tracking = 0;
+  for (int i = 0; i < 60; ++i) {
+    const double t = i / kRateHz;
+    run.ground_truth.push_back({t, truePose(t)});
+    run.results.push_back(pipeline.process(t, renderView(texture, camera, truePose(t))));
+    if (run.results.back().times.keyframe_tracking_ms > 0.0) ++keyframes_with_map_only_tracking;
+  }
+  std::vector<Eigen::Vector3d> frame_points, map_only_points;
+  for (const auto& entry : pipeline.map().points()) {
+    const MapPoint& p = entry.second;
+    if (p.observations.size() < 2) continue;
+    (p.has_track && p.track_id >= KeyframeTracker::kFirstId ? map_only_points : frame_points)
+        .push_back(p.p_world);
+  }
+  const TrajectoryEvaluation eval =
+      evaluateTrajectory(run.ground_truth, estimated(run, true), EvaluationOptions());
+  ASSERT_GE(frame_points.size(), 30u);
+  // The scene's scale: the camera's distance to the ground in map units.
+  const double depth =
+      distancesFromPlane(frame_points, {pipeline.map().keyframes().back().T_world_cam.translation()})[0];
+  std::vector<double> off = distancesFromPlane(frame_points, map_only_points);
+  std::vector<double> own = distancesFromPlane(frame_points, frame_points);
+  std::sort(off.begin(), off.end());
+  std::sort(own.begin(), own.end());
+  std::cout << "frame points off their own plane: median " << 100.0 * own[own.size() / 2] / depth
+            << " %, 95th percentile " << 100.0 * own[own.size() * 95 / 100] / depth << " %\n";
+  std::cout << "keyframe features: " << keyframes_with_map_only_tracking << " keyframes, "
+            << map_only_points.size() << " map-only points against " << frame_points.size()
+            << " of frame tracks; off the frame points' plane: median "
+            << (off.empty() ? 0.0 : 100.0 * off[off.size() / 2] / depth) << " %, 95th percentile "
+            << (off.empty() ? 0.0 : 100.0 * off[off.size() * 95 / 100] / depth) << " % of the depth; ATE "
+            << eval.ate_rmse_percent << " %\n";
+  EXPECT_GE(keyframes_with_map_only_tracking, 3);
+  ASSERT_GE(map_only_points.size(), 100u);
+  // Within the scatter of the frame tracks' own points about their plane (0.6 % / 2.2 % of the depth here).
+  EXPECT_LT(off[off.size() / 2], 0.01 * depth);
+  EXPECT_LT(off[off.size() * 95 / 100], 0.03 * depth);
+  EXPECT_LT(eval.ate_rmse_percent, 1.0);
 }
 
 // The map events of every frame (FrameResult::map_events) are a complete feed of the map: a consumer that
