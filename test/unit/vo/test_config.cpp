@@ -287,6 +287,14 @@ TEST(VoConfig, AltimeterConfigDiffersFromTheDefaultOnlyByTheAltimeter) {
                                << c.dump();
 }
 
+TEST(VoConfig, DenseMapConfigDiffersFromTheDefaultOnlyByTheMapOnlyFeatures) {
+  VoConfig c = loadVoConfig(sourceRoot() + "config/dense_map.yaml");
+  EXPECT_EQ(c.map.keyframe_features, 500);
+  c.map.keyframe_features = VoConfig().map.keyframe_features;
+  EXPECT_TRUE(c == VoConfig()) << "config/dense_map.yaml changes more than map.keyframe_features:\n"
+                               << c.dump();
+}
+
 TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
   const std::pair<const char*, MotionModel> files[] = {{"config/thesis_F.yaml", MotionModel::kFundamental},
                                                        {"config/thesis_E.yaml", MotionModel::kEssential},
