@@ -535,17 +535,19 @@ def format_tables(results):
             lines.append(f"| {r['sequence']} | {image} | {sensors} | {r['config']} | " + " | ".join(cells) + " |")
     peers = peers_table()
     ideal512 = [r for r in results if r["group"] == "ideal512" and r["config"] == "default"]
-    with_starts = [r for r in results if r.get("starts") and r["config"] == "default"]
+    # Every configuration that ran several starts (e.g. --configs default,dense_map), each next to DSO.
+    with_starts = [r for r in results if r.get("starts")]
     if with_starts:
         lines += ["", "Over several starts (vo_run --first-frame 0..N-1: the same images, the run started at a "
                   "later one; Sim(3) ATE % of the path, median (range); a lost start counts as worst):", "",
-                  "| sequence | image | sensors | starts | every frame | keyframes after optimisation | "
-                  "DSO (peer-results.md) |", "|---|---|---|---|---|---|---|"]
+                  "| sequence | image | sensors | config | starts | every frame | keyframes after optimisation | "
+                  "DSO (peer-results.md) |", "|---|---|---|---|---|---|---|---|"]
         for r in with_starts:
             image, sensors = conditions(r)[:2]
             dso = peers.get(r["sequence"], {}).get("DSO", "-") if r["group"] == "ideal512" else "-"
-            lines.append(f"| {r['sequence']} | {image} | {sensors} | {1 + len(r['starts']['ate_percent'])} | "
-                         f"{fmt_starts(r, 'ate_percent')} | {fmt_starts(r, 'keyframes_ate_percent')} | {dso} |")
+            lines.append(f"| {r['sequence']} | {image} | {sensors} | {r['config']} | "
+                         f"{1 + len(r['starts']['ate_percent'])} | {fmt_starts(r, 'ate_percent')} | "
+                         f"{fmt_starts(r, 'keyframes_ate_percent')} | {dso} |")
     if ideal512:
         lines += ["", "Peers on the same 512x512 ideal images (Sim3 ATE % of the path; peers from "
                   "../shared/docs/peer-results.md, measured outside the project; ours measured by this run):", "",
