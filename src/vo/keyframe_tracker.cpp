@@ -19,16 +19,6 @@ cv::Point2f applyHomography(const cv::Matx33d& H, const cv::Point2f& p) {
   return cv::Point2f(static_cast<float>(q[0] / q[2]), static_cast<float>(q[1] / q[2]));
 }
 
-/// The linear part of the homography's image motion at `p` (its Jacobian): the anchor patch's warp.
-cv::Matx22f homographyJacobian(const cv::Matx33d& H, const cv::Point2f& p) {
-  const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1.0);
-  if (std::abs(q[2]) < 1e-12) return cv::Matx22f::eye();
-  const double w = q[2], x = q[0] / w, y = q[1] / w;
-  return cv::Matx22f(
-      static_cast<float>((H(0, 0) - x * H(2, 0)) / w), static_cast<float>((H(0, 1) - x * H(2, 1)) / w),
-      static_cast<float>((H(1, 0) - y * H(2, 0)) / w), static_cast<float>((H(1, 1) - y * H(2, 1)) / w));
-}
-
 bool inside(const cv::Point2f& p, const cv::Size& size, float border) {
   return std::isfinite(p.x) && std::isfinite(p.y) && p.x >= border && p.y >= border &&
          p.x <= static_cast<float>(size.width) - 1.f - border &&
@@ -152,9 +142,10 @@ KeyframeTrackingResult KeyframeTracker::track(const cv::Mat& gray, const std::ve
       // whose alignment fails, leaves too much of the patch's contrast or lands more than
       // anchor_max_shift_px from LK is lost (two methods that disagree).
       if (config_.anchor_refinement && a.patch.valid() && a.chain >= 0) {
-        const cv::Matx33d& chain = chains_[static_cast<size_t>(a.chain)];
-        const PatchAlignment aligned =
-            alignPatch(a.patch, gray, p, 10, 0.01, homographyJacobian(chain, a.px));
+        // An implausible chained warp (mirror, more than 4x zoom) leaves the patch unwarped.
+        cv::Matx22f warp = cv::Matx22f::eye();
+        homographyWarp(chains_[static_cast<size_t>(a.chain)], a.px, &warp);
+        const PatchAlignment aligned = alignPatch(a.patch, gray, p, 10, 0.01, warp);
         if (aligned.converged && cv::norm(aligned.px - p) <= config_.anchor_max_shift_px &&
             aligned.residual_ratio <= config_.anchor_max_residual_ratio &&
             inside(aligned.px, gray.size(), border)) {

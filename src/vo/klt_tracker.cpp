@@ -206,18 +206,9 @@ void KltTracker::reanchor(const cv::Mat& gray, size_t i) {
 cv::Matx22f KltTracker::chainedWarp(int64_t frame, const cv::Point2f& px) const {
   for (const FrameHomography& h : homographies_) {
     if (h.frame != frame) continue;
-    const cv::Matx33d& H = h.H_to_last;
-    const double x = px.x, y = px.y;
-    const double w = H(2, 0) * x + H(2, 1) * y + H(2, 2);
-    if (!(std::abs(w) > 1e-9)) break;
-    const double u = (H(0, 0) * x + H(0, 1) * y + H(0, 2)) / w;
-    const double v = (H(1, 0) * x + H(1, 1) * y + H(1, 2)) / w;
-    const cv::Matx22d J((H(0, 0) - u * H(2, 0)) / w, (H(0, 1) - u * H(2, 1)) / w, (H(1, 0) - v * H(2, 0)) / w,
-                        (H(1, 1) - v * H(2, 1)) / w);
-    const double det = cv::determinant(J);
-    // A plausible image motion of a patch: no mirror, at most 4x zoom either way.
-    if (!(det > 1.0 / 16.0 && det < 16.0)) break;
-    return cv::Matx22f(J);
+    cv::Matx22f warp;
+    if (homographyWarp(h.H_to_last, px, &warp)) return warp;
+    break;
   }
   return anchorWarp(frame);
 }

@@ -29,6 +29,7 @@ uint64_t Map::addKeyframe(double timestamp_s, const Pose& T_world_cam, const std
   kf.T_world_cam = T_world_cam;
   kf.px_by_track.reserve(track_ids.size());
   for (size_t i = 0; i < track_ids.size() && i < px.size(); ++i) kf.px_by_track.emplace(track_ids[i], px[i]);
+  kf.num_frame_tracks = static_cast<int>(kf.px_by_track.size());
   pending_keyframes_.push_back(kf.id);
   keyframes_.push_back(std::move(kf));
   return keyframes_.back().id;

@@ -1,6 +1,7 @@
 #include "planetary_vo/vo/mapper.h"
 
 #include <algorithm>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -49,7 +50,6 @@ KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world
         const Eigen::Vector3d p_cam = T_cam_world * point->p_world;
         if (p_cam.z() <= 0.0 ||
             (camera.project(p_cam) - keyframe_tracks->px[i]).norm() > config_.max_reprojection_error_px) {
-          map->detachTrack(id);
           out.rejected_keyframe_tracks.push_back(id);
           continue;
         }
@@ -58,27 +58,17 @@ KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world
       merged_ids.push_back(id);
       merged_px.push_back(keyframe_tracks->px[i]);
     }
-    // The frame tracks, then the map-only ones (ids above them): ascending, as addKeyframe and the lookups
-    // below need; sorted here should a caller give other ids.
-    if (!std::is_sorted(merged_ids.begin(), merged_ids.end())) {
-      std::vector<size_t> order(merged_ids.size());
-      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-      std::sort(order.begin(), order.end(),
-                [&](size_t a, size_t b) { return merged_ids[a] < merged_ids[b]; });
-      std::vector<uint64_t> ids(order.size());
-      std::vector<Eigen::Vector2d> pxs(order.size());
-      for (size_t i = 0; i < order.size(); ++i) {
-        ids[i] = merged_ids[order[i]];
-        pxs[i] = merged_px[order[i]];
-      }
-      merged_ids.swap(ids);
-      merged_px.swap(pxs);
-    }
+    // The frame tracks, then the map-only ones: ascending, as addKeyframe() and the lookups below need.
+    if (!std::is_sorted(merged_ids.begin(), merged_ids.end()))
+      throw std::invalid_argument(
+          "Mapper::insertKeyframe: map-only track ids must ascend and lie above the frame tracks' ids");
+    for (const uint64_t id : out.rejected_keyframe_tracks) map->detachTrack(id);
   }
   const std::vector<uint64_t>& all_ids = with_keyframe_tracks ? merged_ids : track_ids;
   const std::vector<Eigen::Vector2d>& all_px = with_keyframe_tracks ? merged_px : px;
 
   out.keyframe_id = map->addKeyframe(timestamp_s, T_world_cam, all_ids, all_px);
+  map->keyframe(out.keyframe_id)->num_frame_tracks = static_cast<int>(track_ids.size());
   for (size_t i = 0; i < associations.size(); ++i) {
     if (!associations.inlier[i]) continue;
     const int k = findSorted(track_ids, associations.track_ids[i]);

@@ -27,6 +27,21 @@ inline bool fits(const cv::Mat& gray, float x, float y, int half, int margin) {
 
 }  // namespace
 
+bool homographyWarp(const cv::Matx33d& H, const cv::Point2f& px, cv::Matx22f* warp) {
+  const double x = px.x, y = px.y;
+  const double w = H(2, 0) * x + H(2, 1) * y + H(2, 2);
+  if (!(std::abs(w) > 1e-9)) return false;
+  const double u = (H(0, 0) * x + H(0, 1) * y + H(0, 2)) / w;
+  const double v = (H(1, 0) * x + H(1, 1) * y + H(1, 2)) / w;
+  const cv::Matx22d J((H(0, 0) - u * H(2, 0)) / w, (H(0, 1) - u * H(2, 1)) / w, (H(1, 0) - v * H(2, 0)) / w,
+                      (H(1, 1) - v * H(2, 1)) / w);
+  const double det = cv::determinant(J);
+  // A plausible image motion of a patch: no mirror, at most 4x zoom either way.
+  if (!(det > 1.0 / 16.0 && det < 16.0)) return false;
+  *warp = cv::Matx22f(J);
+  return true;
+}
+
 AnchorPatch makeAnchorPatch(const cv::Mat& gray, const cv::Point2f& px, int size_px) {
   AnchorPatch patch;
   if (gray.empty() || gray.type() != CV_8UC1 || size_px < 3 || size_px % 2 == 0) return patch;

@@ -728,12 +728,7 @@ void Pipeline::maybeInsertKeyframe(FrameResult* result) {
   const Eigen::Matrix3d R_cur_kf = result->T_world_cam.linear().transpose() * last.T_world_cam.linear();
   KeyframeCandidate candidate;
   candidate.frames_since_keyframe = frames_since_keyframe_;
-  // The frame tracks the keyframe held (not its map-only tracks, whose ids are above theirs).
-  candidate.tracks_at_keyframe =
-      config_.map.keyframe_features > 0
-          ? static_cast<int>(std::count_if(last.px_by_track.begin(), last.px_by_track.end(),
-                                           [](const auto& e) { return e.first < KeyframeTracker::kFirstId; }))
-          : static_cast<int>(last.px_by_track.size());
+  candidate.tracks_at_keyframe = last.num_frame_tracks;  // not its map-only tracks
   candidate.surviving_tracks = static_cast<int>(bearings_kf_.size());
   candidate.median_parallax_deg =
       KeyframePolicy::medianParallaxDeg(bearings_kf_, bearings_cur_, R_cur_kf, &scratch_);

@@ -34,6 +34,10 @@ struct Keyframe {
   /// Ideal (undistorted) pixel of every track alive when the keyframe was taken, by track id. New points are
   /// triangulated from these, also for tracks that did not yet carry a point.
   std::unordered_map<uint64_t, Eigen::Vector2d> px_by_track;
+  /// How many of px_by_track are the frame tracker's tracks (the rest are map-only tracks,
+  /// keyframe_tracker.h; the keyframe policy's track ratio counts these only). addKeyframe() counts all; the
+  /// mapper sets it.
+  int num_frame_tracks = 0;
   /// The altimeter's slant range at the keyframe's time (vision + altimeter mode), NaN when there was none.
   double altimeter_range_m = std::numeric_limits<double>::quiet_NaN();
   /// Camera + IMU mode: the IMU body's velocity (world) and biases at the keyframe (has_inertial_state), and

@@ -62,6 +62,8 @@ class Mapper {
   /// @param keyframe_tracks the keyframe's map-only tracks, or nullptr: they join the keyframe like the frame
   ///        tracks (and are triangulated like them); one that carries a point gives it an observation when it
   ///        reprojects within max_reprojection_error_px of the keyframe's pose, else it is detached.
+  /// @throws std::invalid_argument when the map-only ids do not ascend above the frame tracks' (the map is
+  ///         unchanged).
   KeyframeInsertion insertKeyframe(double timestamp_s, const Pose& T_world_cam,
                                    const std::vector<uint64_t>& track_ids,
                                    const std::vector<Eigen::Vector2d>& px,

@@ -51,6 +51,12 @@ struct PatchAlignment {
   int iterations = 0;
 };
 
+/// The linear part of the image motion of the homography `H` at `px` (its Jacobian there): the `warp` that
+/// alignPatch() takes for a patch anchored at `px` and seen through H. False (and `warp` unchanged) when it
+/// is not a plausible patch motion: `px` maps to infinity, the patch is mirrored, or zoomed by more than 4x
+/// either way.
+bool homographyWarp(const cv::Matx33d& H, const cv::Point2f& px, cv::Matx22f* warp);
+
 /// Aligns `patch` in the 8-bit image `gray`, starting at `start_px`: Gauss-Newton on translation, gain and
 /// bias; stops when the translation update is below `epsilon_px` or after `max_iterations`, or when the patch
 /// leaves the image (not converged). `warp` is the linear part of the image motion since the anchor

@@ -3,6 +3,7 @@
 /// points, and a track that has drifted off its point is detached and reported instead of observing it.
 
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -59,6 +60,7 @@ TEST(Mapper, MapOnlyTracksAreTriangulatedObservedAndDetachedWhenOffTheirPoint) {
       mapper.insertKeyframe(0.0, T0, frame_ids, frame_px, no_associations, kCamera, &map, &k0);
   EXPECT_EQ(i0.points_created, 0);
   EXPECT_EQ(map.keyframes().back().px_by_track.size(), points.size() + 1);
+  EXPECT_EQ(map.keyframes().back().num_frame_tracks, 1);  // the keyframe policy's track ratio counts these
 
   // Second keyframe, 10 m baseline (about 6 deg of parallax): every map-only track becomes a point.
   const KeyframeTracks k1 = seen(T1, points);
@@ -95,6 +97,18 @@ TEST(Mapper, MapOnlyTracksAreTriangulatedObservedAndDetachedWhenOffTheirPoint) {
     EXPECT_EQ(p->observations.back().keyframe_id, i2.keyframe_id);
   }
   EXPECT_EQ(i2.points_created, 0);
+}
+
+TEST(Mapper, MapOnlyIdsBelowTheFrameTracksAreRefusedAndTheMapStaysUnchanged) {
+  const Mapper mapper{MapConfig()};
+  Map map;
+  KeyframeTracks wrong;
+  wrong.ids = {5};  // below the frame track 7
+  wrong.px = {Eigen::Vector2d(100, 100)};
+  EXPECT_THROW(mapper.insertKeyframe(0.0, nadirAt(0.0), {7}, {Eigen::Vector2d(320, 240)}, MapAssociations(),
+                                     kCamera, &map, &wrong),
+               std::invalid_argument);
+  EXPECT_EQ(map.numKeyframes(), 0u);
 }
 
 TEST(Mapper, WithoutMapOnlyTracksTheKeyframeHoldsTheFrameTracksOnly) {
