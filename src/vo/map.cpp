@@ -100,9 +100,11 @@ void Map::detachTrack(uint64_t track_id) {
   point_by_track_.erase(it);
 }
 
-void Map::retainTracks(const std::vector<uint64_t>& live_track_ids_sorted) {
+void Map::retainTracks(const std::vector<uint64_t>& live_track_ids_sorted, uint64_t first_id,
+                       uint64_t end_id) {
   for (auto it = point_by_track_.begin(); it != point_by_track_.end();) {
-    if (std::binary_search(live_track_ids_sorted.begin(), live_track_ids_sorted.end(), it->first)) {
+    if (it->first < first_id || it->first >= end_id ||
+        std::binary_search(live_track_ids_sorted.begin(), live_track_ids_sorted.end(), it->first)) {
       ++it;
       continue;
     }
@@ -327,8 +329,7 @@ MapEvents Map::takeEvents() {
   MapEvents events;
   events.map_restarted = pending_restart_;
   for (uint64_t id : pending_keyframes_)
-    if (const Keyframe* kf = keyframe(id))
-      events.keyframes_added.push_back(keyframeState(*kf));
+    if (const Keyframe* kf = keyframe(id)) events.keyframes_added.push_back(keyframeState(*kf));
   for (const auto& entry : pending_points_) {
     const auto it = points_.find(entry.first);
     if (it == points_.end()) continue;

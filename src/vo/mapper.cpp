@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -28,36 +29,47 @@ void MapAssociations::clear() {
 
 Mapper::Mapper(const MapConfig& config) : config_(config) {}
 
+void Mapper::checkKeyframeTracks(const KeyframeTracks& tracks, const Pose& T_world_cam,
+                                 const PinholeCamera& camera, const Map& map, KeyframeTracks* kept,
+                                 std::vector<std::pair<uint64_t, Eigen::Vector2d>>* observed,
+                                 std::vector<uint64_t>* rejected) const {
+  // No PnP saw the map-only tracks: the keyframe's pose checks those that carry a point. One that reprojects
+  // too far from it has drifted off its point: it is detached and left out of the keyframe.
+  const Pose T_cam_world = T_world_cam.inverse();
+  for (size_t i = 0; i < tracks.ids.size(); ++i) {
+    const uint64_t id = tracks.ids[i];
+    if (const MapPoint* point = map.pointForTrack(id)) {
+      const Eigen::Vector3d p_cam = T_cam_world * point->p_world;
+      if (p_cam.z() <= 0.0 ||
+          (camera.project(p_cam) - tracks.px[i]).norm() > config_.max_reprojection_error_px) {
+        rejected->push_back(id);
+        continue;
+      }
+      observed->emplace_back(point->id, tracks.px[i]);
+    }
+    kept->ids.push_back(id);
+    kept->px.push_back(tracks.px[i]);
+  }
+}
+
 KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world_cam,
                                          const std::vector<uint64_t>& track_ids,
                                          const std::vector<Eigen::Vector2d>& px,
                                          const MapAssociations& associations, const PinholeCamera& camera,
                                          Map* map, const KeyframeTracks* keyframe_tracks) const {
   KeyframeInsertion out;
-  // No PnP saw the map-only tracks: the keyframe's pose checks those that carry a point. One that reprojects
-  // too far from it has drifted off its point: it is detached and left out of the keyframe.
   std::vector<uint64_t> merged_ids;
   std::vector<Eigen::Vector2d> merged_px;
   std::vector<std::pair<uint64_t, Eigen::Vector2d>> observed;  // (point id, pixel)
   const bool with_keyframe_tracks = keyframe_tracks != nullptr && !keyframe_tracks->ids.empty();
   if (with_keyframe_tracks) {
+    KeyframeTracks kept;
+    checkKeyframeTracks(*keyframe_tracks, T_world_cam, camera, *map, &kept, &observed,
+                        &out.rejected_keyframe_tracks);
     merged_ids = track_ids;
     merged_px = px;
-    const Pose T_cam_world = T_world_cam.inverse();
-    for (size_t i = 0; i < keyframe_tracks->ids.size(); ++i) {
-      const uint64_t id = keyframe_tracks->ids[i];
-      if (const MapPoint* point = map->pointForTrack(id)) {
-        const Eigen::Vector3d p_cam = T_cam_world * point->p_world;
-        if (p_cam.z() <= 0.0 ||
-            (camera.project(p_cam) - keyframe_tracks->px[i]).norm() > config_.max_reprojection_error_px) {
-          out.rejected_keyframe_tracks.push_back(id);
-          continue;
-        }
-        observed.emplace_back(point->id, keyframe_tracks->px[i]);
-      }
-      merged_ids.push_back(id);
-      merged_px.push_back(keyframe_tracks->px[i]);
-    }
+    merged_ids.insert(merged_ids.end(), kept.ids.begin(), kept.ids.end());
+    merged_px.insert(merged_px.end(), kept.px.begin(), kept.px.end());
     // The frame tracks, then the map-only ones: ascending, as addKeyframe() and the lookups below need.
     if (!std::is_sorted(merged_ids.begin(), merged_ids.end()))
       throw std::invalid_argument(
@@ -77,9 +89,41 @@ KeyframeInsertion Mapper::insertKeyframe(double timestamp_s, const Pose& T_world
   for (const auto& o : observed) map->addObservation(o.first, out.keyframe_id, o.second);
   out.keyframe_track_observations = static_cast<int>(observed.size());
   out.points_created = triangulateNewPoints(out.keyframe_id, all_ids, all_px, camera, map);
-  map->retainTracks(all_ids);
+  // Without map-only tracks given, those of the map (attached later by attachKeyframeTracks()) keep theirs.
+  if (keyframe_tracks != nullptr)
+    map->retainTracks(all_ids);
+  else
+    map->retainTracks(all_ids, 0, kFirstMapOnlyTrackId);
   map->dropKeyframesOutsideWindow(config_.window_keyframes);
   out.points_culled = map->cull(config_);
+  return out;
+}
+
+KeyframeInsertion Mapper::attachKeyframeTracks(uint64_t keyframe_id, const KeyframeTracks& keyframe_tracks,
+                                               const PinholeCamera& camera, Map* map) const {
+  if (map->keyframes().empty() || map->keyframes().back().id != keyframe_id)
+    throw std::invalid_argument("Mapper::attachKeyframeTracks: keyframe " + std::to_string(keyframe_id) +
+                                " is not the newest keyframe of the map");
+  if (keyframe_tracks.ids.size() != keyframe_tracks.px.size() ||
+      !std::is_sorted(keyframe_tracks.ids.begin(), keyframe_tracks.ids.end()) ||
+      (!keyframe_tracks.ids.empty() && keyframe_tracks.ids.front() < kFirstMapOnlyTrackId))
+    throw std::invalid_argument(
+        "Mapper::attachKeyframeTracks: map-only track ids must ascend from kFirstMapOnlyTrackId, one pixel "
+        "each");
+  KeyframeInsertion out;
+  out.keyframe_id = keyframe_id;
+  Keyframe& kf = *map->keyframe(keyframe_id);
+  KeyframeTracks kept;
+  std::vector<std::pair<uint64_t, Eigen::Vector2d>> observed;
+  checkKeyframeTracks(keyframe_tracks, kf.T_world_cam, camera, *map, &kept, &observed,
+                      &out.rejected_keyframe_tracks);
+  for (const uint64_t id : out.rejected_keyframe_tracks) map->detachTrack(id);
+  for (size_t i = 0; i < kept.ids.size(); ++i) kf.px_by_track[kept.ids[i]] = kept.px[i];
+  for (const auto& o : observed) map->addObservation(o.first, keyframe_id, o.second);
+  out.keyframe_track_observations = static_cast<int>(observed.size());
+  out.points_created = triangulateNewPoints(keyframe_id, kept.ids, kept.px, camera, map);
+  // The map-only tracks the keyframe tracker lost stop following their point (the frame tracks' are left).
+  map->retainTracks(kept.ids, kFirstMapOnlyTrackId);
   return out;
 }
 

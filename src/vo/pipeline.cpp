@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -117,7 +118,7 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
     async_ba_ = std::make_unique<AsyncBundleAdjuster>(config_.bundle_adjustment);
 }
 
-Pipeline::~Pipeline() = default;
+Pipeline::~Pipeline() { discardKeyframeTracking(); }
 
 void Pipeline::reset() {
   if (async_ba_) {
@@ -126,6 +127,7 @@ void Pipeline::reset() {
     async_ba_->takeCovariance();
   }
   images_since_ba_submit_ = -1;
+  discardKeyframeTracking();
   tracker_.reset();
   keyframe_tracker_.reset();
   frozen_detector_.reset();
@@ -164,6 +166,7 @@ void Pipeline::setCamera(const PinholeCamera& camera) {
 
 void Pipeline::restartTracking() {
   tracker_.reset();
+  discardKeyframeTracking();
   keyframe_tracker_.reset();
   frozen_detector_.reset();
   exposure_compensator_.reset();
@@ -245,6 +248,10 @@ void Pipeline::reconfigure(const VoConfig& next) {
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
     async_ba_.reset();
     images_since_ba_submit_ = -1;
+    // The map-only tracks of the last keyframe, tracked in the background, join it as the next frame would
+    // have joined them; from now on they are tracked at the keyframe itself.
+    FrameResult ignored;
+    collectKeyframeTracking(&ignored);
   }
   config_ = next;
 }
@@ -621,6 +628,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
   if (const std::optional<NavState> carried = newestInertialState()) carried_inertial_ = carried;
   if (auto carried = newestCovariance()) carried_covariance_ = carried;
   map_.clear();
+  discardKeyframeTracking();
   keyframe_tracker_.reset();
   const uint64_t kf_ref =
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
@@ -751,26 +759,38 @@ void Pipeline::insertKeyframe(FrameResult* result) {
   const Clock::time_point start = Clock::now();
   KeyframeTracks keyframe_tracks;
   std::string keyframe_note;
-  if (config_.map.keyframe_features > 0 && !current_image_.empty()) {
-    // The map-only features (keyframe_tracker.h), predicted by the frame tracks' motion since the last
-    // keyframe (distorted pixels, in track_ids_ order).
-    std::vector<cv::Point2f> live_px(track_ids_.size());
+  const bool with_map_only = config_.map.keyframe_features > 0 && !current_image_.empty();
+  // The map-only features (keyframe_tracker.h), predicted by the frame tracks' motion since the last
+  // keyframe (distorted pixels, in track_ids_ order).
+  std::vector<cv::Point2f> live_px;
+  if (with_map_only) {
+    live_px.resize(track_ids_.size());
     for (size_t k = 0; k < track_ids_.size(); ++k) live_px[k] = distorted_px_[order_[k]];
+  }
+  const bool in_background = with_map_only && async_ba_ != nullptr;
+  if (in_background) {
+    // With the optimiser in its own thread, so are they: tracked while the next images are processed and
+    // joined to this keyframe just before the next keyframe is inserted (collectKeyframeTracking()), so that
+    // they cost the tracking path nothing. No frame's pose uses them, and the bundle adjustment of the next
+    // keyframe is the first to: the map is the same as if they had been joined at once (see
+    // Mapper::attachKeyframeTracks).
+    collectKeyframeTracking(result);  // those of the last keyframe
+    keyframe_job_ =
+        std::async(std::launch::async, [this, image = current_image_.clone(), ids = track_ids_,
+                                        px = live_px] { return keyframe_tracker_.track(image, ids, px); });
+  } else if (with_map_only) {
     const KeyframeTrackingResult tracked = keyframe_tracker_.track(current_image_, track_ids_, live_px);
-    keyframe_tracks.ids = keyframe_tracker_.ids();
-    const std::vector<cv::Point2f>& distorted = keyframe_tracker_.px();
-    const std::vector<cv::Point2f> ideal =
-        camera_.hasDistortion() ? camera_.undistortPixels(distorted) : distorted;
-    keyframe_tracks.px.resize(ideal.size());
-    for (size_t i = 0; i < ideal.size(); ++i) keyframe_tracks.px[i] = Eigen::Vector2d(ideal[i].x, ideal[i].y);
+    keyframe_tracks = idealKeyframeTracks();
     result->times.keyframe_tracking_ms = tracked.ms;
     keyframe_note = "; map-only tracks " + std::to_string(tracked.num_tracked) + " (" +
                     std::to_string(tracked.num_aligned) + " aligned, +" + std::to_string(tracked.num_new) +
                     ", -" + std::to_string(tracked.num_lost) + ")";
   }
-  const KeyframeInsertion insertion = mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_,
-                                                             px_, assoc_, camera_, &map_, &keyframe_tracks);
-  keyframe_tracker_.removeTracks(insertion.rejected_keyframe_tracks);
+  const KeyframeInsertion insertion =
+      mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_, assoc_, camera_, &map_,
+                             with_map_only && !in_background ? &keyframe_tracks : nullptr);
+  if (in_background) keyframe_job_keyframe_id_ = insertion.keyframe_id;
+  if (!in_background) keyframe_tracker_.removeTracks(insertion.rejected_keyframe_tracks);
   frames_since_keyframe_ = 0;
   result->message +=
       ": +" + std::to_string(insertion.points_created) + " points, -" +
@@ -950,6 +970,57 @@ void Pipeline::refinePoseAgainstMap(FrameResult* result) {
   result->num_inliers = pnp.num_inliers;
   assoc_.inlier = pnp.inlier_mask;
   snapshotCurrent(timestamp_s_, pnp.T_world_cam, &last_good_);
+}
+
+KeyframeTracks Pipeline::idealKeyframeTracks() const {
+  KeyframeTracks tracks;
+  tracks.ids = keyframe_tracker_.ids();
+  const std::vector<cv::Point2f>& distorted = keyframe_tracker_.px();
+  const std::vector<cv::Point2f> ideal =
+      camera_.hasDistortion() ? camera_.undistortPixels(distorted) : distorted;
+  tracks.px.resize(ideal.size());
+  for (size_t i = 0; i < ideal.size(); ++i) tracks.px[i] = Eigen::Vector2d(ideal[i].x, ideal[i].y);
+  return tracks;
+}
+
+void Pipeline::collectKeyframeTracking(FrameResult* result) {
+  if (!keyframe_job_.valid()) return;
+  auto note = [result](const std::string& text) {
+    result->message += (result->message.empty() ? "" : "; ") + text;
+  };
+  KeyframeTrackingResult tracked;
+  try {
+    tracked = keyframe_job_.get();
+  } catch (const std::exception& e) {
+    // A fault of the background tracking stays there: its tracks are dropped (the tracker starts again at
+    // the next keyframe) and the frame says so.
+    keyframe_tracker_.reset();
+    note(std::string("map-only tracking failed in the background (") + e.what() + "): its tracks dropped");
+    return;
+  }
+  result->times.keyframe_tracking_ms = tracked.ms;
+  if (map_.keyframes().empty() || map_.keyframes().back().id != keyframe_job_keyframe_id_) {
+    keyframe_tracker_.reset();  // its keyframe left the map (cannot happen while the map is kept)
+    note("map-only tracks of a keyframe no longer in the map: dropped");
+    return;
+  }
+  const KeyframeInsertion attached =
+      mapper_.attachKeyframeTracks(keyframe_job_keyframe_id_, idealKeyframeTracks(), camera_, &map_);
+  keyframe_tracker_.removeTracks(attached.rejected_keyframe_tracks);
+  note("map-only tracks of the last keyframe " + std::to_string(tracked.num_tracked) + " (" +
+       std::to_string(tracked.num_aligned) + " aligned, +" + std::to_string(tracked.num_new) + ", -" +
+       std::to_string(tracked.num_lost) + "): +" + std::to_string(attached.points_created) + " points, " +
+       std::to_string(attached.keyframe_track_observations) + " observe their point, " +
+       std::to_string(attached.rejected_keyframe_tracks.size()) + " rejected");
+}
+
+void Pipeline::discardKeyframeTracking() {
+  if (!keyframe_job_.valid()) return;
+  try {
+    keyframe_job_.get();
+  } catch (const std::exception&) {
+    // discarded with its result
+  }
 }
 
 void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {

@@ -58,7 +58,10 @@ struct StageTimesMs {
   double motion_ms =
       0.0;  ///< two-view estimation (initialisation, unit steps) or PnP + motion-only refinement
   double mapping_ms = 0.0;  ///< keyframe insertion, triangulation, culling, window management
-  /// part of mapping_ms: the map-only features of a keyframe (map.keyframe_features; keyframe_tracker.h)
+  /// The map-only features of a keyframe (map.keyframe_features; keyframe_tracker.h). With a synchronous
+  /// optimiser, this keyframe's, part of mapping_ms. With the optimiser in its own thread they are tracked in
+  /// the background: the time of the last keyframe's, reported by the next keyframe, which joins them to the
+  /// map (its wait for them, if they were not done yet, is part of its mapping_ms).
   double keyframe_tracking_ms = 0.0;
   double ba_ms = 0.0;  ///< synchronous bundle adjustment, or applying an asynchronous result
   /// The bundle adjustment's own CPU time (BaSummary::solve_cpu_ms) of the adjustment this frame ran or

@@ -24,6 +24,7 @@
 
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/grid_detector.h"
+#include "planetary_vo/vo/map.h"
 #include "planetary_vo/vo/patch_alignment.h"
 
 namespace planetary_vo {
@@ -40,7 +41,7 @@ struct KeyframeTrackingResult {
 
 class KeyframeTracker {
  public:
-  static constexpr uint64_t kFirstId = uint64_t{1} << 62;
+  static constexpr uint64_t kFirstId = kFirstMapOnlyTrackId;  ///< map.h
 
   /// @param num_features the map-only features wanted per keyframe (on top of the frame tracker's).
   /// @param anchor_max_age a track's anchor patch is cut again after this many keyframes (>= 1; 1: each

@@ -27,6 +27,10 @@
 
 namespace planetary_vo {
 
+/// Track ids from here up are map-only tracks (keyframe_tracker.h), followed at keyframes only; the frame
+/// tracker's ids stay below.
+constexpr uint64_t kFirstMapOnlyTrackId = uint64_t{1} << 62;
+
 struct Keyframe {
   uint64_t id = 0;
   double timestamp_s = 0.0;
@@ -108,8 +112,11 @@ class Map {
   /// The track of a point stops following it (tracking outlier, or the track died): the point stays for
   /// bundle adjustment while keyframes observe it but is never matched to a frame again.
   void detachTrack(uint64_t track_id);
-  /// Detaches every track that is not in `live_track_ids` (sorted ascending).
-  void retainTracks(const std::vector<uint64_t>& live_track_ids_sorted);
+  /// Detaches every track that is not in `live_track_ids` (sorted ascending). With a range, only the tracks
+  /// whose id lies in [first_id, end_id) are looked at (e.g. the frame tracks only, below
+  /// kFirstMapOnlyTrackId); the others keep their point.
+  void retainTracks(const std::vector<uint64_t>& live_track_ids_sorted, uint64_t first_id = 0,
+                    uint64_t end_id = std::numeric_limits<uint64_t>::max());
 
   /// Drops the oldest keyframes beyond `window_keyframes` and the points nothing holds any more. Returns the
   /// number of points removed.

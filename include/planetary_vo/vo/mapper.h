@@ -11,6 +11,7 @@
 /// here.
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -70,7 +71,23 @@ class Mapper {
                                    const MapAssociations& associations, const PinholeCamera& camera, Map* map,
                                    const KeyframeTracks* keyframe_tracks = nullptr) const;
 
+  /// The map-only tracks of the newest keyframe, found after it was inserted (the pipeline has them tracked
+  /// in the background while the next image is processed): they join that keyframe as insertKeyframe()
+  /// would have joined them (reprojection check against its pose, as it is now, observations, new points
+  /// triangulated against the oldest kept keyframe that saw them), and map-only tracks not among them stop
+  /// following their point. The window and the culling are left to the next insertKeyframe().
+  /// @throws std::invalid_argument when `keyframe_id` is not the newest keyframe, or the ids do not ascend
+  ///         from kFirstMapOnlyTrackId (the map is unchanged).
+  KeyframeInsertion attachKeyframeTracks(uint64_t keyframe_id, const KeyframeTracks& keyframe_tracks,
+                                         const PinholeCamera& camera, Map* map) const;
+
  private:
+  /// Splits map-only tracks into those that join the keyframe (`kept`, with `observed` the (point id, pixel)
+  /// of those carrying a point) and those off their point by more than max_reprojection_error_px.
+  void checkKeyframeTracks(const KeyframeTracks& tracks, const Pose& T_world_cam, const PinholeCamera& camera,
+                           const Map& map, KeyframeTracks* kept,
+                           std::vector<std::pair<uint64_t, Eigen::Vector2d>>* observed,
+                           std::vector<uint64_t>* rejected) const;
   int triangulateNewPoints(uint64_t new_keyframe_id, const std::vector<uint64_t>& track_ids,
                            const std::vector<Eigen::Vector2d>& px, const PinholeCamera& camera,
                            Map* map) const;

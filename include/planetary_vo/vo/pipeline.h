@@ -32,6 +32,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -187,6 +188,13 @@ class Pipeline {
   /// (robust_loss_scale_aligned_px when `frame` was tracked by anchor alignment).
   BundleAdjustmentConfig adjustmentConfig(const FrameResult& frame) const;
   void applyAsyncBundleAdjustment(FrameResult* result);
+  /// The keyframe tracker's tracks (keyframe_tracker.h) in ideal pixels.
+  KeyframeTracks idealKeyframeTracks() const;
+  /// Joins the map-only tracks tracked in the background (keyframe_job_) to their keyframe, if any are
+  /// pending (waits for them).
+  void collectKeyframeTracking(FrameResult* result);
+  /// Waits for the background map-only tracking, if any, and drops its result (a new map or a reset).
+  void discardKeyframeTracking();
   /// The current frame's pose refined again against the map points as they are now (after an adjustment).
   void refinePoseAgainstMap(FrameResult* result);
   /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
@@ -239,6 +247,11 @@ class Pipeline {
   Mapper mapper_;
   KeyframeTracker keyframe_tracker_;  ///< map.keyframe_features > 0
   cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
+  /// The map-only tracking of the last keyframe when the optimiser runs in its own thread: running in the
+  /// background until the next keyframe joins its tracks to that keyframe (keyframe_job_keyframe_id_), just
+  /// before it is inserted itself. While it is valid, nothing else touches keyframe_tracker_.
+  std::future<KeyframeTrackingResult> keyframe_job_;
+  uint64_t keyframe_job_keyframe_id_ = 0;
   Map map_;
   AltimeterAiding altimeter_;
   InertialAiding inertial_;

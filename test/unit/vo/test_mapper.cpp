@@ -111,6 +111,89 @@ TEST(Mapper, MapOnlyIdsBelowTheFrameTracksAreRefusedAndTheMapStaysUnchanged) {
   EXPECT_EQ(map.numKeyframes(), 0u);
 }
 
+// The pipeline's background path: each keyframe is inserted with its frame tracks only and its map-only
+// tracks are attached afterwards (Mapper::attachKeyframeTracks). The map ends the same as when they are given
+// at insertion: the same points, exact to 1e-6, observed by the same keyframes; the drifted track is
+// detached; a keyframe inserted without map-only tracks leaves the map-only tracks' points attached (they are
+// followed at keyframes only), and attaching without a track detaches it.
+TEST(Mapper, MapOnlyTracksAttachedAfterTheKeyframeGiveTheSameMapAsAtInsertion) {
+  const Mapper mapper{MapConfig()};
+  const std::vector<Eigen::Vector3d> points = groundPoints();
+  const std::vector<uint64_t> frame_ids{7};
+  const std::vector<Eigen::Vector2d> frame_px{Eigen::Vector2d(320, 240)};
+  const std::vector<Pose> poses{nadirAt(0.0), nadirAt(10.0), nadirAt(20.0)};
+  const size_t drifted = 11;
+  Map at_insertion, attached_after;
+  for (size_t k = 0; k < poses.size(); ++k) {
+    KeyframeTracks tracks = seen(poses[k], points);
+    if (k == 2) tracks.px[drifted] += Eigen::Vector2d(5.0, 0.0);
+    mapper.insertKeyframe(k, poses[k], frame_ids, frame_px, MapAssociations(), kCamera, &at_insertion,
+                          &tracks);
+    const KeyframeInsertion inserted =
+        mapper.insertKeyframe(k, poses[k], frame_ids, frame_px, MapAssociations(), kCamera, &attached_after);
+    // Between insertion and attachment the map-only points keep their tracks.
+    if (k == 2) {
+      for (const uint64_t id : tracks.ids) EXPECT_NE(attached_after.pointForTrack(id), nullptr);
+    }
+    const KeyframeInsertion attached =
+        mapper.attachKeyframeTracks(inserted.keyframe_id, tracks, kCamera, &attached_after);
+    EXPECT_EQ(attached.points_created, k == 1 ? static_cast<int>(points.size()) : 0);
+    if (k == 2) {
+      EXPECT_EQ(attached.keyframe_track_observations, static_cast<int>(points.size()) - 1);
+      ASSERT_EQ(attached.rejected_keyframe_tracks.size(), 1u);
+      EXPECT_EQ(attached.rejected_keyframe_tracks[0], tracks.ids[drifted]);
+    }
+  }
+  ASSERT_EQ(attached_after.numPoints(), at_insertion.numPoints());
+  ASSERT_EQ(attached_after.numPoints(), points.size());
+  const KeyframeTracks ids = seen(poses[0], points);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const MapPoint* a = at_insertion.pointForTrack(ids.ids[i]);
+    const MapPoint* b = attached_after.pointForTrack(ids.ids[i]);
+    ASSERT_EQ(a == nullptr, b == nullptr) << i;
+    if (i == drifted) {
+      EXPECT_EQ(b, nullptr);
+      continue;
+    }
+    ASSERT_NE(b, nullptr);
+    EXPECT_LT((b->p_world - points[i]).norm(), 1e-6);
+    ASSERT_EQ(b->observations.size(), a->observations.size());
+    for (size_t o = 0; o < a->observations.size(); ++o)
+      EXPECT_EQ(b->observations[o].keyframe_id, a->observations[o].keyframe_id);
+  }
+  EXPECT_EQ(attached_after.keyframes().back().px_by_track.size(),
+            at_insertion.keyframes().back().px_by_track.size());
+
+  // A track the keyframe tracker lost: attaching the others detaches it.
+  KeyframeTracks fewer = seen(poses[2], points);
+  fewer.ids.erase(fewer.ids.begin());
+  fewer.px.erase(fewer.px.begin());
+  const uint64_t lost = ids.ids[0];
+  mapper.insertKeyframe(3.0, nadirAt(30.0), frame_ids, frame_px, MapAssociations(), kCamera, &attached_after);
+  ASSERT_NE(attached_after.pointForTrack(lost), nullptr);
+  mapper.attachKeyframeTracks(attached_after.keyframes().back().id, KeyframeTracks(), kCamera,
+                              &attached_after);
+  EXPECT_EQ(attached_after.pointForTrack(lost), nullptr);
+}
+
+TEST(Mapper, MapOnlyTracksAreAttachedToTheNewestKeyframeOnly) {
+  const Mapper mapper{MapConfig()};
+  Map map;
+  const std::vector<uint64_t> frame_ids{7};
+  const std::vector<Eigen::Vector2d> frame_px{Eigen::Vector2d(320, 240)};
+  const KeyframeInsertion first =
+      mapper.insertKeyframe(0.0, nadirAt(0.0), frame_ids, frame_px, MapAssociations(), kCamera, &map);
+  mapper.insertKeyframe(1.0, nadirAt(10.0), frame_ids, frame_px, MapAssociations(), kCamera, &map);
+  const KeyframeTracks tracks = seen(nadirAt(0.0), groundPoints());
+  EXPECT_THROW(mapper.attachKeyframeTracks(first.keyframe_id, tracks, kCamera, &map), std::invalid_argument);
+  KeyframeTracks frame_range;
+  frame_range.ids = {3};
+  frame_range.px = {Eigen::Vector2d(100, 100)};
+  EXPECT_THROW(mapper.attachKeyframeTracks(map.keyframes().back().id, frame_range, kCamera, &map),
+               std::invalid_argument);
+  for (const Keyframe& kf : map.keyframes()) EXPECT_EQ(kf.px_by_track.size(), 1u);
+}
+
 TEST(Mapper, WithoutMapOnlyTracksTheKeyframeHoldsTheFrameTracksOnly) {
   MapConfig config;
   const Mapper mapper(config);

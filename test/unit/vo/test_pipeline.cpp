@@ -182,10 +182,14 @@ std::vector<double> distancesFromPlane(const std::vector<Eigen::Vector3d>& plane
 // map.keyframe_features: the map-only tracks (keyframe_tracker.h) put points in the map that no frame track
 // carries, and on this planar ground they lie on the plane of the frame tracks' points (a wrong pixel, e.g.
 // distorted for ideal, or a track on the wrong keyframe, would throw them off it); the trajectory stays
-// accurate. Without the option there is no such point (the test fails when it is switched off).
-TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) {
+// accurate. Without the option there is no such point (the test fails when it is switched off). With the
+// optimiser in its own thread (bundle_adjustment.asynchronous, the default) they are tracked in the
+// background and joined to their keyframe when the next one is taken; with a synchronous optimiser, at the
+// keyframe itself.
+void checkMapOnlyPointsOnTheGround(bool asynchronous) {
   VoConfig config;
   config.map.keyframe_features = 300;
+  config.bundle_adjustment.asynchronous = asynchronous;
   static const cv::Mat texture = groundTexture();
   const PinholeCamera camera = test::planarDescentCamera();
   Pipeline pipeline(config, camera);
@@ -195,7 +199,15 @@ TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) {
     const double t = i / kRateHz;
     run.ground_truth.push_back({t, truePose(t)});
     run.results.push_back(pipeline.process(t, renderView(texture, camera, truePose(t))));
-    if (run.results.back().times.keyframe_tracking_ms > 0.0) ++keyframes_with_map_only_tracking;
+    if (run.results.back().times.keyframe_tracking_ms > 0.0) {
+      ++keyframes_with_map_only_tracking;
+      // Reported at a keyframe: its own tracks, or (in the background) those of the last keyframe, which it
+      // joins to the map.
+      EXPECT_TRUE(run.results.back().is_keyframe) << "frame " << i;
+      if (asynchronous)
+        EXPECT_NE(run.results.back().message.find("map-only tracks of the last keyframe"), std::string::npos)
+            << run.results.back().message;
+    }
   }
   std::vector<Eigen::Vector3d> frame_points, map_only_points;
   for (const auto& entry : pipeline.map().points()) {
@@ -216,7 +228,8 @@ TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) {
   std::sort(own.begin(), own.end());
   std::cout << "frame points off their own plane: median " << 100.0 * own[own.size() / 2] / depth
             << " %, 95th percentile " << 100.0 * own[own.size() * 95 / 100] / depth << " %\n";
-  std::cout << "keyframe features: " << keyframes_with_map_only_tracking << " keyframes, "
+  std::cout << (asynchronous ? "in the background: " : "at the keyframe: ")
+            << "keyframe features: " << keyframes_with_map_only_tracking << " keyframes, "
             << map_only_points.size() << " map-only points against " << frame_points.size()
             << " of frame tracks; off the frame points' plane: median "
             << (off.empty() ? 0.0 : 100.0 * off[off.size() / 2] / depth) << " %, 95th percentile "
@@ -228,6 +241,22 @@ TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) {
   EXPECT_LT(off[off.size() / 2], 0.01 * depth);
   EXPECT_LT(off[off.size() * 95 / 100], 0.03 * depth);
   EXPECT_LT(eval.ate_rmse_percent, 1.0);
+
+  // The background tracking is joined at a fixed point (the next keyframe), so a second run gives the very
+  // same poses.
+  Pipeline again(config, camera);
+  for (int i = 0; i < 60; ++i) {
+    const double t = i / kRateHz;
+    const FrameResult r = again.process(t, renderView(texture, camera, truePose(t)));
+    ASSERT_TRUE(r.T_world_cam.matrix() == run.results[static_cast<size_t>(i)].T_world_cam.matrix())
+        << "frame " << i;
+  }
+}
+
+TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGround) { checkMapOnlyPointsOnTheGround(true); }
+
+TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGroundWithASynchronousOptimiser) {
+  checkMapOnlyPointsOnTheGround(false);
 }
 
 // The map events of every frame (FrameResult::map_events) are a complete feed of the map: a consumer that
