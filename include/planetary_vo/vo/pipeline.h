@@ -27,8 +27,9 @@
 /// bundle_adjustment.asynchronous the bundle adjustment of a new keyframe runs in a worker thread owned by
 /// the pipeline while the next image is tracked (KLT); the next process() applies it after tracking and
 /// before estimating the pose, waiting if it is still running. So the adjustment is hidden behind the
-/// tracking of the next image, and the results do not depend on timing. mapPoints() reads the map of the
-/// calling thread.
+/// tracking of the next image, and the results do not depend on timing. The map-only features of a keyframe
+/// (map.keyframe_features) are then tracked in a thread of their own until the next keyframe joins them to
+/// the map. mapPoints() reads the map of the calling thread.
 
 #include <chrono>
 #include <cstdint>

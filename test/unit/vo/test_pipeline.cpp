@@ -259,6 +259,55 @@ TEST(Pipeline, KeyframeFeaturesAddMapOnlyPointsOnTheGroundWithASynchronousOptimi
   checkMapOnlyPointsOnTheGround(false);
 }
 
+// A reset, restartTracking() and a new configuration that stops the optimiser thread, each right after a
+// keyframe, while the map-only tracking of that keyframe runs in the background: tracking goes on, map-only
+// points are made again, and no frame reports a job dropped for a keyframe no longer in the map or failed.
+// (That each call waits for the job before the keyframe tracker is reset is in the code; a race would show
+// under a thread sanitizer, not reliably here.)
+TEST(Pipeline, MapOnlyTrackingInTheBackgroundSurvivesResetsAndReconfiguration) {
+  VoConfig config;
+  config.map.keyframe_features = 300;
+  static const cv::Mat texture = groundTexture();
+  const PinholeCamera camera = test::planarDescentCamera();
+  Pipeline pipeline(config, camera);
+  auto countMapOnlyPoints = [&pipeline] {
+    int n = 0;
+    for (const auto& entry : pipeline.map().points())
+      if (entry.second.has_track && entry.second.track_id >= KeyframeTracker::kFirstId) ++n;
+    return n;
+  };
+  int i = 0;
+  auto runUntilKeyframe = [&](int max_frames) {
+    for (int k = 0; k < max_frames; ++k, ++i) {
+      const double t = i / kRateHz;
+      const FrameResult r = pipeline.process(t, renderView(texture, camera, truePose(t)));
+      EXPECT_EQ(r.message.find("no longer in the map"), std::string::npos) << r.message;
+      EXPECT_EQ(r.message.find("failed in the background"), std::string::npos) << r.message;
+      if (r.is_keyframe) {
+        ++i;
+        return true;
+      }
+    }
+    return false;
+  };
+  // A keyframe after the first map: its job is pending when each of these comes.
+  ASSERT_TRUE(runUntilKeyframe(40));
+  ASSERT_TRUE(runUntilKeyframe(20));
+  pipeline.reset();
+  ASSERT_TRUE(runUntilKeyframe(40));
+  ASSERT_TRUE(runUntilKeyframe(20));
+  pipeline.restartTracking();
+  ASSERT_TRUE(runUntilKeyframe(40));
+  ASSERT_TRUE(runUntilKeyframe(20));
+  VoConfig no_ba = config;
+  no_ba.bundle_adjustment.enabled = false;  // stops the optimiser thread: the pending tracks are joined now
+  pipeline.reconfigure(no_ba);
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(runUntilKeyframe(20)) << k;
+  EXPECT_GE(countMapOnlyPoints(), 20);
+  const FrameResult last = pipeline.process(i / kRateHz, renderView(texture, camera, truePose(i / kRateHz)));
+  EXPECT_EQ(last.state, TrackingState::kTracking);
+}
+
 // The map events of every frame (FrameResult::map_events) are a complete feed of the map: a consumer that
 // applies them holds exactly the pipeline's points (ids and positions) after every frame, also across a
 // blackout and the new map of the recovery; and the points retired from the window are still valid
