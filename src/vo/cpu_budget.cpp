@@ -16,6 +16,8 @@ namespace {
 std::string describeAgainst(const VoConfig& base, const VoConfig& c) {
   std::string what;
   auto add = [&what](const std::string& s) { what += (what.empty() ? "" : ", ") + s; };
+  if (c.map.keyframe_features != base.map.keyframe_features)
+    add("keyframe_features " + std::to_string(c.map.keyframe_features));
   if (c.detector.num_features != base.detector.num_features)
     add("num_features " + std::to_string(c.detector.num_features));
   if (c.tracker.pyramid_levels != base.tracker.pyramid_levels)
@@ -43,6 +45,8 @@ CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
 
   std::vector<VoConfig> ladder{base};
   VoConfig c = base;
+  c.map.keyframe_features = 0;  // the map-only features first: off the tracking path, but on the CPU
+  ladder.push_back(c);
   c.detector.num_features = features(0.7);
   ladder.push_back(c);
   c.tracker.pyramid_levels = std::max(1, base.tracker.pyramid_levels - 1);

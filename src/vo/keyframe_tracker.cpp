@@ -51,6 +51,14 @@ void KeyframeTracker::reset() {
   chains_.clear();
 }
 
+void KeyframeTracker::setNumFeatures(int num_features) {
+  reset();
+  num_features_ = num_features;
+  DetectorConfig d = detector_config_;
+  d.num_features = detector_config_.num_features + num_features;
+  detector_ = GridDetector(d);
+}
+
 int KeyframeTracker::removeTracks(const std::vector<uint64_t>& ids) {
   if (ids.empty()) return 0;
   std::vector<uint64_t> sorted = ids;

@@ -214,6 +214,7 @@ void Pipeline::reconfigure(const VoConfig& next) {
   runtime.tracker.window_size_px = next.tracker.window_size_px;
   runtime.tracker.pyramid_levels = next.tracker.pyramid_levels;
   runtime.tracker.anchor_refinement = next.tracker.anchor_refinement;
+  runtime.map.keyframe_features = next.map.keyframe_features;
   runtime.cpu_budget = next.cpu_budget;  // not read by the pipeline
   if (runtime != next) {
     FieldTexts have, want;
@@ -227,11 +228,19 @@ void Pipeline::reconfigure(const VoConfig& next) {
     throw std::invalid_argument(
         "Pipeline::reconfigure: " + names +
         ": not changeable at runtime (only detector.num_features, tracker.window_size_px, "
-        "tracker.pyramid_levels, tracker.anchor_refinement, motion.model, "
+        "tracker.pyramid_levels, tracker.anchor_refinement, map.keyframe_features, motion.model, "
         "bundle_adjustment.enabled and cpu_budget are; a new Pipeline takes the rest)");
   }
   if (next.detector.num_features != config_.detector.num_features) tracker_.setDetectorConfig(next.detector);
   if (!(next.tracker == config_.tracker)) tracker_.setConfig(next.tracker);
+  if (next.map.keyframe_features != config_.map.keyframe_features) {
+    // The map-only tracking starts again from the next keyframe with the new number; the tracks of the old
+    // one (and a job still running) are dropped, and their points stay for the adjustment while keyframes
+    // observe them. Track ids keep increasing, so an old keyframe's pixels never meet a new track.
+    discardKeyframeTracking();
+    keyframe_tracker_.setNumFeatures(next.map.keyframe_features);
+    map_.retainTracks({}, kFirstMapOnlyTrackId);
+  }
   if (next.motion.model != config_.motion.model) {
     Initializer initializer(next.motion, next.map, planeNormalPriorVector(next.motion.plane_normal_prior));
     if (prior_plane_normal_override_cam_) initializer.setPriorPlaneNormal(*prior_plane_normal_override_cam_);

@@ -7,6 +7,8 @@
 /// next lighter configuration, which the caller applies with Pipeline::reconfigure() between two frames
 /// (tracks, map and trajectory are kept). The steps, cheapest in accuracy first (docs/visual_core.md measures
 /// them):
+///   -  when map-only features are on (map.keyframe_features), a step before all others turns them off: they
+///      run beside the tracking, but their tracking and the larger adjustment share the CPU with it;
 ///   1. 70 % of the feature budget (detector.num_features)
 ///   2. one LK pyramid level less (tracker.pyramid_levels, at least 1)
 ///   3. no anchor refinement (tracker.anchor_refinement)

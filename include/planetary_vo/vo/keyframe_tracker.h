@@ -63,6 +63,9 @@ class KeyframeTracker {
   int removeTracks(const std::vector<uint64_t>& ids);
   /// Forgets the previous keyframe and every track (a new map); ids keep increasing.
   void reset();
+  /// A new number of map-only features per keyframe (0: none); forgets every track as reset() does.
+  void setNumFeatures(int num_features);
+  int numFeatures() const { return num_features_; }
 
  private:
   struct Anchor {

@@ -135,6 +135,8 @@ class Pipeline {
   /// - detector.num_features: the budget of the next detections (replenishment, restart); live tracks stay.
   /// - tracker.window_size_px, tracker.pyramid_levels, tracker.anchor_refinement: from the next frame on, for
   ///   the live tracks too (KltTracker::setConfig; CpuBudget's steps).
+  /// - map.keyframe_features: the map-only features from the next keyframe on (0: none); the current ones are
+  ///   dropped, their points stay while keyframes observe them (CpuBudget's first step when they are on).
   /// - cpu_budget: not read by the pipeline (vo_run and the VO nodelet apply it).
   /// - motion.model: the two-view model of the next initialisation or recovery (map mode) or of the next
   ///   step (unit-step chain); a setPriorPlaneNormal() override is kept.

@@ -70,6 +70,20 @@ TEST(CpuBudget, StepsThatChangeNothingAreLeftOut) {
   EXPECT_EQ(budget.describe(3), "num_features 100");
 }
 
+TEST(CpuBudget, MapOnlyFeaturesAreTurnedOffFirst) {
+  VoConfig dense = withBudget(10.0);
+  dense.map.keyframe_features = 500;
+  const CpuBudget budget(dense);
+  ASSERT_EQ(budget.numSteps(), 7);
+  EXPECT_EQ(budget.config(1).map.keyframe_features, 0);
+  EXPECT_EQ(budget.config(1).detector.num_features, dense.detector.num_features);
+  EXPECT_EQ(budget.describe(1), "keyframe_features 0");
+  EXPECT_EQ(budget.config(2).detector.num_features, 210);  // then the steps of the default, in order
+  for (int k = 1; k < budget.numSteps(); ++k) EXPECT_EQ(budget.config(k).map.keyframe_features, 0) << k;
+  // Without them (the default) there is no such step.
+  EXPECT_EQ(CpuBudget(withBudget(10.0)).numSteps(), 6);
+}
+
 TEST(CpuBudget, OffByDefault) {
   CpuBudget budget{VoConfig()};
   EXPECT_FALSE(budget.enabled());

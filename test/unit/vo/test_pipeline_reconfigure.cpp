@@ -222,6 +222,32 @@ TEST(PipelineReconfigure, CpuBudgetStepsChangeInPlace) {
   }
 }
 
+TEST(PipelineReconfigure, MapOnlyFeaturesTurnOffAndOnInPlace) {
+  // map.keyframe_features (the CPU budget's first step when they are on) off at frame 25, while the tracking
+  // of the last keyframe's runs in the background, and on again at 45: the trajectory runs on; no keyframe
+  // in between reports map-only tracking, and after 45 they are tracked again.
+  VoConfig base = clipConfig();
+  base.map.keyframe_features = 300;
+  const std::vector<Change> changes{{25, [](VoConfig* c) { c->map.keyframe_features = 0; }},
+                                    {45, [](VoConfig* c) { c->map.keyframe_features = 300; }}};
+  const ClipRun run = runWithChanges(base, kFrames, changes, Apply::kInPlace);
+  const ::testing::AssertionResult check =
+      continuousWithoutScaleJump(run, 25, kMaxStepRatio, kMaxErrorPercent);
+  std::cout << "map-only features off and on: " << check.message() << "\n";
+  EXPECT_TRUE(check);
+  int before = 0, off = 0, after = 0;
+  for (const FrameResult& r : run.results) {
+    if (r.times.keyframe_tracking_ms <= 0.0) continue;
+    // Back on, they start afresh: the first tracking carries no track over from before frame 25.
+    if (r.frame_index >= 45 && after == 0)
+      EXPECT_NE(r.message.find("map-only tracks of the last keyframe 0 ("), std::string::npos) << r.message;
+    (r.frame_index < 25 ? before : r.frame_index < 45 ? off : after) += 1;
+  }
+  EXPECT_GE(before, 1);
+  EXPECT_EQ(off, 0);
+  EXPECT_GE(after, 1);
+}
+
 TEST(PipelineReconfigure, InlineBundleAdjustmentTogglesToo) {
   VoConfig config = clipConfig();
   config.bundle_adjustment.asynchronous = false;
