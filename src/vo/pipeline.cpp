@@ -17,7 +17,14 @@
 #include "planetary_vo/vo/scale_bridge.h"
 
 namespace planetary_vo {
+
 namespace {
+
+/// "N (A aligned, +NEW, -LOST)": what one keyframe's map-only tracking did (keyframe_tracker.h).
+std::string describeKeyframeTracking(const KeyframeTrackingResult& tracked) {
+  return std::to_string(tracked.num_tracked) + " (" + std::to_string(tracked.num_aligned) + " aligned, +" +
+         std::to_string(tracked.num_new) + ", -" + std::to_string(tracked.num_lost) + ")";
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -780,26 +787,28 @@ void Pipeline::insertKeyframe(FrameResult* result) {
   if (in_background) {
     // With the optimiser in its own thread, so are they: tracked while the next images are processed and
     // joined to this keyframe just before the next keyframe is inserted (collectKeyframeTracking()), so that
-    // they cost the tracking path nothing. No frame's pose uses them, and the bundle adjustment of the next
-    // keyframe is the first to: the map is the same as if they had been joined at once (see
-    // Mapper::attachKeyframeTracks).
+    // they cost the tracking path nothing. No frame's pose uses them; the bundle adjustment of the next
+    // keyframe is the first to (at the keyframe, this keyframe's adjustment would have: docs/visual_core.md
+    // step 10 measures the difference).
     collectKeyframeTracking(result);  // those of the last keyframe
-    keyframe_job_ =
-        std::async(std::launch::async, [this, image = current_image_.clone(), ids = track_ids_,
-                                        px = live_px] { return keyframe_tracker_.track(image, ids, px); });
   } else if (with_map_only) {
     const KeyframeTrackingResult tracked = keyframe_tracker_.track(current_image_, track_ids_, live_px);
     keyframe_tracks = idealKeyframeTracks();
     result->times.keyframe_tracking_ms = tracked.ms;
-    keyframe_note = "; map-only tracks " + std::to_string(tracked.num_tracked) + " (" +
-                    std::to_string(tracked.num_aligned) + " aligned, +" + std::to_string(tracked.num_new) +
-                    ", -" + std::to_string(tracked.num_lost) + ")";
+    keyframe_note = "; map-only tracks " + describeKeyframeTracking(tracked);
   }
   const KeyframeInsertion insertion =
       mapper_.insertKeyframe(timestamp_s_, result->T_world_cam, track_ids_, px_, assoc_, camera_, &map_,
                              with_map_only && !in_background ? &keyframe_tracks : nullptr);
-  if (in_background) keyframe_job_keyframe_id_ = insertion.keyframe_id;
-  if (!in_background) keyframe_tracker_.removeTracks(insertion.rejected_keyframe_tracks);
+  if (in_background) {
+    // Started once the keyframe is in the map, so that the job and its keyframe id go together.
+    keyframe_job_keyframe_id_ = insertion.keyframe_id;
+    keyframe_job_ = std::async(std::launch::async,
+                               [this, image = current_image_.clone(), ids = track_ids_,
+                                px = std::move(live_px)] { return keyframe_tracker_.track(image, ids, px); });
+  } else {
+    keyframe_tracker_.removeTracks(insertion.rejected_keyframe_tracks);
+  }
   frames_since_keyframe_ = 0;
   result->message +=
       ": +" + std::to_string(insertion.points_created) + " points, -" +
@@ -1016,9 +1025,8 @@ void Pipeline::collectKeyframeTracking(FrameResult* result) {
   const KeyframeInsertion attached =
       mapper_.attachKeyframeTracks(keyframe_job_keyframe_id_, idealKeyframeTracks(), camera_, &map_);
   keyframe_tracker_.removeTracks(attached.rejected_keyframe_tracks);
-  note("map-only tracks of the last keyframe " + std::to_string(tracked.num_tracked) + " (" +
-       std::to_string(tracked.num_aligned) + " aligned, +" + std::to_string(tracked.num_new) + ", -" +
-       std::to_string(tracked.num_lost) + "): +" + std::to_string(attached.points_created) + " points, " +
+  note("map-only tracks of the last keyframe " + describeKeyframeTracking(tracked) + ": +" +
+       std::to_string(attached.points_created) + " points, " +
        std::to_string(attached.keyframe_track_observations) + " observe their point, " +
        std::to_string(attached.rejected_keyframe_tracks.size()) + " rejected");
 }

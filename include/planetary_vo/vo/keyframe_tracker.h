@@ -65,7 +65,6 @@ class KeyframeTracker {
   void reset();
   /// A new number of map-only features per keyframe (0: none); forgets every track as reset() does.
   void setNumFeatures(int num_features);
-  int numFeatures() const { return num_features_; }
 
  private:
   struct Anchor {
