@@ -336,18 +336,19 @@ void KltTracker::alignToAnchors(TrackingResult* result) {
     return a.converged && a.residual_ratio <= config_.alignment_max_residual_ratio;
   };
   // The coarsest level needed: the prediction missed by prediction_error_px_ (90th percentile, last frame);
-  // twice that must lie within a level's basin of about a quarter patch (2.5 px for 11 px) times its scale.
-  // Level 1 at least; all levels when nothing is known yet. A track that fails from there is tried again from
-  // the top level before anything else.
+  // twice that must lie within a level's basin of about a quarter patch (2.75 px for 11 px) times its scale.
+  // Full resolution alone when the prediction is that good; all levels when nothing is known yet. A track
+  // that fails from there is tried again from the top level before anything else.
   const size_t top_level = curr_pyramid_.size() - 1;
   size_t start_level = top_level;
   if (prediction_error_px_ >= 0.0) {
     const double basin_px = std::max(1.0, 0.25 * config_.anchor_patch_px);
-    start_level = 1;
+    start_level = 0;
     while (start_level < top_level && basin_px * (1 << start_level) < 2.0 * prediction_error_px_)
       ++start_level;
     start_level = std::min(start_level, top_level);
   }
+  result->alignment_start_level = static_cast<int>(start_level);
   miss_px_.clear();
   for (size_t i = 0; i < n; ++i) {
     Anchor& anchor = anchors_[i];

@@ -28,6 +28,9 @@ struct TrackingResult {
   int num_lost_residual = 0;
   /// anchor_alignment: tracks whose anchor failed, found again from their patch in the previous image
   int num_realigned = 0;
+  /// anchor_alignment: the pyramid level the tracks' alignment started from (0 = full resolution alone),
+  /// chosen from the last frame's prediction error; -1 when LK alone tracked the frame
+  int alignment_start_level = -1;
   bool anchor_alignment =
       false;  ///< this frame was tracked by anchor alignment (the method, or auto's choice)
   /// auto: anchor alignment found fewer than half of the tracks (the image jumped beyond the patches' reach),
