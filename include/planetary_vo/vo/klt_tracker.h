@@ -58,9 +58,11 @@ struct TrackingResult {
 /// caller may reuse its buffer after track() returns. With TrackerConfig::anchor_refinement, each track keeps
 /// the patch it had when anchored (patch_alignment.h) and the KLT position is refined against it.
 ///
-/// With TrackingMethod::kAnchorAlignment there is no LK: the pyramid is a plain image pyramid (no Scharr
-/// derivatives, no padding), each track's anchor patch is cut at every level when it is anchored, and a track
-/// is found in a new image by aligning those patches coarse to fine from its predicted position.
+/// With TrackingMethod::kAnchorAlignment there is no LK: the pyramid is a plain pyramid of 2x2 means (no
+/// Scharr derivatives, no padding), each track's anchor patch is cut at every level when it is anchored, and
+/// a track is found in a new image by aligning those patches coarse to fine from its predicted position,
+/// starting at the coarsest level the last frame's prediction error needs (full resolution alone when the
+/// prediction was good; TrackingResult::alignment_start_level).
 ///
 /// Threading: not thread-safe; one instance per image stream.
 class KltTracker {
