@@ -269,10 +269,15 @@ TEST(AnchorAlignment, AWellPredictedTrackIsAlignedAtFullResolutionAloneAndAJoltF
   }
   std::printf("start levels:");
   for (int k = 1; k < kFrames; ++k) std::printf(" %d", levels[k]);
-  std::printf("; tracks carried into the jolt frame %d\n", tracked[kJolt]);
+  std::printf("; tracks carried into the frame before the jolt %d, into the jolt frame %d\n",
+              tracked[kJolt - 1], tracked[kJolt]);
   // Nothing known yet: every level; then the prediction (flow of the last frame) is good.
   EXPECT_EQ(levels[1], 3);
   for (int k = 3; k <= kJolt; ++k) EXPECT_EQ(levels[k], 0) << "frame " << k;
+  // The jolt loses the tracks (27 of 134 here) within a coarse patch's reach of the image border, where the
+  // coarse levels do not fit and the finer ones cannot bridge 8 px (108 went on with level 1 as the floor
+  // and the pyrDown pyramid).
+  EXPECT_GE(tracked[kJolt], 95);
   EXPECT_GE(levels[kJolt + 1], 2);  // the jolt's 7 px in the prediction: a basin of 11 px or more
   for (int k = kJolt + 3; k < kFrames; ++k) EXPECT_EQ(levels[k], 0) << "frame " << k;
   // The tracks from frame 0 are still on their points at the end. Two of them, near the right edge where
