@@ -25,6 +25,14 @@ bool inside(const cv::Point2f& p, const cv::Size& size, float border) {
          p.y <= static_cast<float>(size.height) - 1.f - border;
 }
 
+/// The detector of the keyframes: the frame tracks' budget plus the map-only features, so that its grid
+/// leaves room for both.
+DetectorConfig withMapOnlyFeatures(const DetectorConfig& detector, int num_features) {
+  DetectorConfig d = detector;
+  d.num_features = detector.num_features + num_features;
+  return d;
+}
+
 }  // namespace
 
 KeyframeTracker::KeyframeTracker(int num_features, int anchor_max_age, const TrackerConfig& tracker,
@@ -33,11 +41,7 @@ KeyframeTracker::KeyframeTracker(int num_features, int anchor_max_age, const Tra
       anchor_max_age_(std::max(1, anchor_max_age)),
       config_(tracker),
       detector_config_(detector),
-      detector_([&] {
-        DetectorConfig d = detector;
-        d.num_features = detector.num_features + num_features;
-        return d;
-      }()),
+      detector_(withMapOnlyFeatures(detector, num_features)),
       win_size_(tracker.window_size_px, tracker.window_size_px),
       criteria_(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, tracker.max_iterations, tracker.epsilon_px) {
 }
@@ -54,9 +58,7 @@ void KeyframeTracker::reset() {
 void KeyframeTracker::setNumFeatures(int num_features) {
   reset();
   num_features_ = num_features;
-  DetectorConfig d = detector_config_;
-  d.num_features = detector_config_.num_features + num_features;
-  detector_ = GridDetector(d);
+  detector_ = GridDetector(withMapOnlyFeatures(detector_config_, num_features));
 }
 
 int KeyframeTracker::removeTracks(const std::vector<uint64_t>& ids) {
