@@ -20,6 +20,8 @@ std::string describeAgainst(const VoConfig& base, const VoConfig& c) {
     add("keyframe_features " + std::to_string(c.map.keyframe_features));
   if (c.detector.num_features != base.detector.num_features)
     add("num_features " + std::to_string(c.detector.num_features));
+  if (c.detector.grid_cols != base.detector.grid_cols || c.detector.grid_rows != base.detector.grid_rows)
+    add("grid " + std::to_string(c.detector.grid_cols) + "x" + std::to_string(c.detector.grid_rows));
   if (c.tracker.pyramid_levels != base.tracker.pyramid_levels)
     add("pyramid_levels " + std::to_string(c.tracker.pyramid_levels));
   if (c.tracker.anchor_refinement != base.tracker.anchor_refinement)
@@ -37,9 +39,22 @@ void applyOpenCvThreads(const CpuBudgetConfig& config) {
 
 CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
   const int floor_features = std::max(1, base.tracker.min_tracked_features);
-  auto features = [&](double fraction) {
+  // A fraction of the feature budget, with the detection grid scaled along so that a cell holds as many
+  // features as at step 0: with the same grid, fewer features per cell leave cells empty sooner, and the
+  // replenishment detection that follows runs on most frames (main_brake_down 1024 flight at 100 features:
+  // detection median 0.97 ms instead of 0.01, the frame slower than at 300; docs/visual_core.md).
+  auto withFeatures = [&](VoConfig* c, int features) {
+    features = std::min(c->detector.num_features, features);
+    c->detector.num_features = features;
+    const double s = std::sqrt(static_cast<double>(features) / std::max(1, base.detector.num_features));
+    c->detector.grid_cols = std::clamp(static_cast<int>(std::lround(s * base.detector.grid_cols)), 1,
+                                       base.detector.grid_cols);
+    c->detector.grid_rows = std::clamp(static_cast<int>(std::lround(s * base.detector.grid_rows)), 1,
+                                       base.detector.grid_rows);
+  };
+  auto fraction = [&](double f) {
     return std::max(std::min(floor_features, base.detector.num_features),
-                    static_cast<int>(std::lround(fraction * base.detector.num_features)));
+                    static_cast<int>(std::lround(f * base.detector.num_features)));
   };
   auto window = [](int current, int at_most) { return std::min(current, at_most); };
 
@@ -47,18 +62,39 @@ CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
   VoConfig c = base;
   c.map.keyframe_features = 0;  // the map-only features first: off the tracking path, but on the CPU
   ladder.push_back(c);
-  c.detector.num_features = features(0.7);
-  ladder.push_back(c);
-  c.tracker.pyramid_levels = std::max(1, base.tracker.pyramid_levels - 1);
-  ladder.push_back(c);
-  c.tracker.anchor_refinement = false;
-  ladder.push_back(c);
-  c.detector.num_features = features(0.5);
-  c.tracker.window_size_px = window(c.tracker.window_size_px, 15);
-  ladder.push_back(c);
-  c.detector.num_features = std::min(floor_features, c.detector.num_features);
-  c.tracker.window_size_px = window(c.tracker.window_size_px, 11);
-  ladder.push_back(c);
+  if (base.tracker.method == TrackingMethod::kKlt) {
+    // LK: its cost is the features times the window's pixels times the levels.
+    withFeatures(&c, fraction(0.7));
+    ladder.push_back(c);
+    c.tracker.pyramid_levels = std::max(1, base.tracker.pyramid_levels - 1);
+    ladder.push_back(c);
+    c.tracker.anchor_refinement = false;
+    ladder.push_back(c);
+    withFeatures(&c, fraction(0.5));
+    c.tracker.window_size_px = window(c.tracker.window_size_px, 15);
+    ladder.push_back(c);
+    withFeatures(&c, floor_features);
+    c.tracker.window_size_px = window(c.tracker.window_size_px, 11);
+    ladder.push_back(c);
+  } else {
+    // Anchor alignment (and auto, which aligns the anchors on a plane-like view): the alignment's cost is
+    // the number of tracks (its levels above full resolution are used only when the prediction misses);
+    // the window and the refinement are LK's, and one level less saved nothing measurable (docs). The
+    // features go first; with auto one more step makes the frames it tracks by LK (its first ones, a rescue,
+    // a 3D scene) lighter as well.
+    withFeatures(&c, fraction(0.7));
+    ladder.push_back(c);
+    withFeatures(&c, fraction(0.5));
+    ladder.push_back(c);
+    withFeatures(&c, floor_features);
+    ladder.push_back(c);
+    if (base.tracker.method == TrackingMethod::kAuto) {
+      c.tracker.pyramid_levels = std::max(1, base.tracker.pyramid_levels - 1);
+      c.tracker.anchor_refinement = false;
+      c.tracker.window_size_px = window(c.tracker.window_size_px, 11);
+      ladder.push_back(c);
+    }
+  }
 
   for (const VoConfig& step : ladder) {
     if (!steps_.empty() && step == steps_.back().config) continue;  // changes nothing here

@@ -216,6 +216,8 @@ void Pipeline::reconfigure(const VoConfig& next) {
   next.validate();
   VoConfig runtime = config_;  // the current one with the runtime-changeable fields of `next`
   runtime.detector.num_features = next.detector.num_features;
+  runtime.detector.grid_cols = next.detector.grid_cols;
+  runtime.detector.grid_rows = next.detector.grid_rows;
   runtime.motion.model = next.motion.model;
   runtime.bundle_adjustment.enabled = next.bundle_adjustment.enabled;
   runtime.tracker.window_size_px = next.tracker.window_size_px;
@@ -234,11 +236,12 @@ void Pipeline::reconfigure(const VoConfig& next) {
                  want.fields[i].second + ")";
     throw std::invalid_argument(
         "Pipeline::reconfigure: " + names +
-        ": not changeable at runtime (only detector.num_features, tracker.window_size_px, "
+        ": not changeable at runtime (only detector.num_features, detector.grid_cols, detector.grid_rows, "
+        "tracker.window_size_px, "
         "tracker.pyramid_levels, tracker.anchor_refinement, map.keyframe_features, motion.model, "
         "bundle_adjustment.enabled and cpu_budget are; a new Pipeline takes the rest)");
   }
-  if (next.detector.num_features != config_.detector.num_features) tracker_.setDetectorConfig(next.detector);
+  if (!(next.detector == config_.detector)) tracker_.setDetectorConfig(next.detector);
   if (!(next.tracker == config_.tracker)) tracker_.setConfig(next.tracker);
   if (next.map.keyframe_features != config_.map.keyframe_features) {
     // The map-only tracking starts again from the next keyframe with the new number; the tracks of the old

@@ -6,11 +6,19 @@
 /// median over cpu_budget.window_frames frames is above cpu_budget.frame_budget_ms, observe() returns the
 /// next lighter configuration, which the caller applies with Pipeline::reconfigure() between two frames
 /// (tracks, map and trajectory are kept). The steps, cheapest in accuracy first (docs/visual_core.md measures
-/// them):
+/// them); a step with fewer features scales the detection grid along (a cell keeps as many features, so that
+/// replenishment stays as rare as at step 0):
 ///   -  when map-only features are on (map.keyframe_features), a step before all others turns them off: they
 ///      run beside the tracking, but their tracking and the larger adjustment share the CPU with it;
+///   tracker.method anchor_alignment or auto (the default), whose cost is the number of tracks:
 ///   1. 70 % of the feature budget (detector.num_features)
-///   2. one LK pyramid level less (tracker.pyramid_levels, at least 1)
+///   2. half of it
+///   3. tracker.min_tracked_features features
+///   4. auto only, for the frames it tracks by LK: one pyramid level less (tracker.pyramid_levels, at least
+///      1), no anchor refinement and an LK window of at most 11 px
+///   tracker.method klt, whose cost is also the window and the levels:
+///   1. 70 % of the feature budget
+///   2. one LK pyramid level less
 ///   3. no anchor refinement (tracker.anchor_refinement)
 ///   4. half the feature budget and an LK window of at most 15 px
 ///   5. tracker.min_tracked_features features and an 11 px window

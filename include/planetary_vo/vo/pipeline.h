@@ -132,7 +132,8 @@ class Pipeline {
   /// tracks, map, trajectory, scale (and its confidence) and inertial state are all kept, so the trajectory
   /// continues without a jump and without a new scale. Runtime-changeable fields (every other field of
   /// `next` must equal config()):
-  /// - detector.num_features: the budget of the next detections (replenishment, restart); live tracks stay.
+  /// - detector.num_features, detector.grid_cols, detector.grid_rows: the budget and the grid of the next
+  ///   detections (replenishment, restart); live tracks stay.
   /// - tracker.window_size_px, tracker.pyramid_levels, tracker.anchor_refinement: from the next frame on, for
   ///   the live tracks too (KltTracker::setConfig; CpuBudget's steps).
   /// - map.keyframe_features: the map-only features from the next keyframe on (0: none); the current ones are

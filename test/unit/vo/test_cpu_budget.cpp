@@ -27,14 +27,62 @@ int feed(CpuBudget* budget, double ms, int frames) {
   return changed_to;
 }
 
+/// Only the runtime-changeable fields differ from the base (Pipeline::reconfigure accepts the step).
+void expectRuntimeChangeable(const CpuBudget& budget, const VoConfig& base) {
+  for (int k = 0; k < budget.numSteps(); ++k) {
+    EXPECT_NO_THROW(budget.config(k).validate()) << "step " << k;
+    VoConfig c = budget.config(k);
+    c.detector.num_features = base.detector.num_features;
+    c.detector.grid_cols = base.detector.grid_cols;
+    c.detector.grid_rows = base.detector.grid_rows;
+    c.tracker.pyramid_levels = base.tracker.pyramid_levels;
+    c.tracker.anchor_refinement = base.tracker.anchor_refinement;
+    c.tracker.window_size_px = base.tracker.window_size_px;
+    EXPECT_EQ(c, base) << "step " << k;
+  }
+}
+
+/// Features per detection-grid cell of a step.
+double featuresPerCell(const VoConfig& c) {
+  return static_cast<double>(c.detector.num_features) / (c.detector.grid_cols * c.detector.grid_rows);
+}
+
 TEST(CpuBudget, StepsGetLighterInTheDocumentedOrder) {
-  const CpuBudget budget(withBudget(10.0));
-  ASSERT_EQ(budget.numSteps(), 6);
+  // The default, tracker.method auto (anchor alignment on a plane-like view): the features first, then one
+  // step for the frames it tracks by LK.
   const VoConfig base = withBudget(10.0);
+  ASSERT_EQ(base.tracker.method, TrackingMethod::kAuto);
+  const CpuBudget budget(base);
+  ASSERT_EQ(budget.numSteps(), 5);
   EXPECT_EQ(budget.config(0), base);
   EXPECT_EQ(budget.describe(0), "base");
+  EXPECT_EQ(budget.config(1).detector.num_features, 210);
+  EXPECT_EQ(budget.config(2).detector.num_features, 150);
+  EXPECT_EQ(budget.config(3).detector.num_features, base.tracker.min_tracked_features);
+  for (int k = 1; k <= 3; ++k) EXPECT_EQ(budget.config(k).tracker, base.tracker) << "step " << k;
+  EXPECT_EQ(budget.config(4).tracker.pyramid_levels, base.tracker.pyramid_levels - 1);
+  EXPECT_FALSE(budget.config(4).tracker.anchor_refinement);
+  EXPECT_EQ(budget.config(4).tracker.window_size_px, 11);
+  EXPECT_EQ(budget.describe(1), "num_features 210, grid 7x7");
+  EXPECT_EQ(budget.describe(4),
+            "num_features 100, grid 5x5, pyramid_levels 2, anchor_refinement off, window_size_px 11");
+  expectRuntimeChangeable(budget, base);
+
+  // anchor_alignment alone: the LK step changes nothing it uses and is not there.
+  VoConfig aligned = base;
+  aligned.tracker.method = TrackingMethod::kAnchorAlignment;
+  const CpuBudget aligned_budget(aligned);
+  ASSERT_EQ(aligned_budget.numSteps(), 4);
+  EXPECT_EQ(aligned_budget.describe(3), "num_features 100, grid 5x5");
+}
+
+TEST(CpuBudget, LkStepsGetLighterInTheDocumentedOrder) {
   // 1: fewer features; 2: one LK level less; 3: no anchor refinement; 4: half the features, 15 px window;
   // 5: the tracker's minimum of features, 11 px window.
+  VoConfig base = withBudget(10.0);
+  base.tracker.method = TrackingMethod::kKlt;
+  const CpuBudget budget(base);
+  ASSERT_EQ(budget.numSteps(), 6);
   EXPECT_EQ(budget.config(1).detector.num_features, 210);
   EXPECT_EQ(budget.config(1).tracker.pyramid_levels, base.tracker.pyramid_levels);
   EXPECT_EQ(budget.config(2).tracker.pyramid_levels, base.tracker.pyramid_levels - 1);
@@ -45,17 +93,37 @@ TEST(CpuBudget, StepsGetLighterInTheDocumentedOrder) {
   EXPECT_EQ(budget.config(5).detector.num_features, base.tracker.min_tracked_features);
   EXPECT_EQ(budget.config(5).tracker.window_size_px, 11);
   EXPECT_EQ(budget.describe(5),
-            "num_features 100, pyramid_levels 2, anchor_refinement off, window_size_px 11");
-  for (int k = 0; k < budget.numSteps(); ++k) {
-    EXPECT_NO_THROW(budget.config(k).validate()) << "step " << k;
-    // Only the runtime-changeable fields differ from the base (Pipeline::reconfigure accepts the step).
-    VoConfig c = budget.config(k);
-    c.detector.num_features = base.detector.num_features;
-    c.tracker.pyramid_levels = base.tracker.pyramid_levels;
-    c.tracker.anchor_refinement = base.tracker.anchor_refinement;
-    c.tracker.window_size_px = base.tracker.window_size_px;
-    EXPECT_EQ(c, base) << "step " << k;
+            "num_features 100, grid 5x5, pyramid_levels 2, anchor_refinement off, window_size_px 11");
+  expectRuntimeChangeable(budget, base);
+}
+
+TEST(CpuBudget, TheGridFollowsTheFeatures) {
+  // A cell keeps about as many features as at step 0 (300 in 8x8 cells: 4.7), so that cells do not empty
+  // sooner (KltTracker.FewerFeaturesInTheSameGridDetectOnMoreFrames shows why).
+  for (const TrackingMethod method : {TrackingMethod::kAuto, TrackingMethod::kKlt}) {
+    VoConfig base = withBudget(10.0);
+    base.tracker.method = method;
+    const CpuBudget budget(base);
+    for (int k = 1; k < budget.numSteps(); ++k) {
+      const VoConfig& c = budget.config(k);
+      EXPECT_NEAR(featuresPerCell(c) / featuresPerCell(base), 1.0, 0.2) << "step " << k;
+      EXPECT_EQ(c.detector.grid_cols, c.detector.grid_rows) << "the square grid stays square";
+    }
   }
+  // A wide grid keeps its aspect; a grid never grows, and never goes below one cell.
+  VoConfig wide = withBudget(10.0);
+  wide.detector.grid_cols = 12;
+  wide.detector.grid_rows = 4;
+  const CpuBudget wide_budget(wide);
+  const VoConfig& lightest = wide_budget.config(wide_budget.numSteps() - 1);
+  EXPECT_EQ(lightest.detector.grid_cols, 7);  // 12 x sqrt(100 / 300) = 6.9
+  EXPECT_EQ(lightest.detector.grid_rows, 2);
+  VoConfig few = withBudget(10.0);
+  few.detector.num_features = 20;
+  few.detector.grid_cols = few.detector.grid_rows = 1;
+  few.tracker.min_tracked_features = 10;
+  const CpuBudget few_budget(few);
+  for (int k = 0; k < few_budget.numSteps(); ++k) EXPECT_EQ(few_budget.config(k).detector.grid_cols, 1);
 }
 
 TEST(CpuBudget, StepsThatChangeNothingAreLeftOut) {
@@ -63,25 +131,29 @@ TEST(CpuBudget, StepsThatChangeNothingAreLeftOut) {
   light.tracker.anchor_refinement = false;  // as the thesis configurations
   light.tracker.pyramid_levels = 1;
   light.tracker.window_size_px = 11;
-  const CpuBudget budget(light);
-  // base, 70 % features, 50 % features, minimum features: the level, refinement and window steps are gone.
-  ASSERT_EQ(budget.numSteps(), 4);
-  EXPECT_EQ(budget.describe(1), "num_features 210");
-  EXPECT_EQ(budget.describe(3), "num_features 100");
+  // base, 70 % features, 50 % features, minimum features: the level, refinement and window steps are gone,
+  // with LK and with auto.
+  for (const TrackingMethod method : {TrackingMethod::kAuto, TrackingMethod::kKlt}) {
+    light.tracker.method = method;
+    const CpuBudget budget(light);
+    ASSERT_EQ(budget.numSteps(), 4);
+    EXPECT_EQ(budget.describe(1), "num_features 210, grid 7x7");
+    EXPECT_EQ(budget.describe(3), "num_features 100, grid 5x5");
+  }
 }
 
 TEST(CpuBudget, MapOnlyFeaturesAreTurnedOffFirst) {
   VoConfig dense = withBudget(10.0);
   dense.map.keyframe_features = 500;
   const CpuBudget budget(dense);
-  ASSERT_EQ(budget.numSteps(), 7);
+  ASSERT_EQ(budget.numSteps(), 6);
   EXPECT_EQ(budget.config(1).map.keyframe_features, 0);
   EXPECT_EQ(budget.config(1).detector.num_features, dense.detector.num_features);
   EXPECT_EQ(budget.describe(1), "keyframe_features 0");
   EXPECT_EQ(budget.config(2).detector.num_features, 210);  // then the steps of the default, in order
   for (int k = 1; k < budget.numSteps(); ++k) EXPECT_EQ(budget.config(k).map.keyframe_features, 0) << k;
   // Without them (the default) there is no such step.
-  EXPECT_EQ(CpuBudget(withBudget(10.0)).numSteps(), 6);
+  EXPECT_EQ(CpuBudget(withBudget(10.0)).numSteps(), 5);
 }
 
 TEST(CpuBudget, OffByDefault) {

@@ -334,6 +334,38 @@ TEST(KltTracker, DetectionWaitsUntilEnoughCellsAreShort) {
   EXPECT_GT(eager.track(views.second).num_new, 0);
 }
 
+TEST(KltTracker, FewerFeaturesInTheSameGridDetectOnMoreFrames) {
+  // Why the CPU budget's lighter steps scale the detection grid with the features (cpu_budget.h): tracks are
+  // lost inside the image at random (here 4 % per frame, as outliers and failed alignments are), a cell
+  // with fewer features empties sooner, and the replenishment detection runs on more frames. The default
+  // tracker (auto: anchor alignment once the view is planar), a steady image motion of (3, 1) px per frame.
+  auto framesWithDetection = [](int features, int grid) {
+    DetectorConfig detector;
+    detector.num_features = features;
+    detector.grid_cols = detector.grid_rows = grid;
+    KltTracker tracker{TrackerConfig(), detector};
+    cv::RNG rng(11);
+    int frames = 0;
+    for (int k = 0; k < 60; ++k) {
+      const cv::Mat image = test::toGray(test::planeWaveTexture(kSize, 5, translation(3.0 * k, 1.0 * k)));
+      const TrackingResult r = tracker.track(image);
+      if (k > 0 && r.num_new > 0) ++frames;
+      std::vector<uint64_t> lost;
+      for (const FeatureTrack& t : tracker.tracks())
+        if (rng.uniform(0.0, 1.0) < 0.04) lost.push_back(t.id);
+      tracker.removeTracks(lost);
+    }
+    return frames;
+  };
+  const int base = framesWithDetection(300, 8);      // the default: 4.7 features per cell
+  const int same_grid = framesWithDetection(100, 8);  // 1.6 per cell
+  const int scaled = framesWithDetection(100, 5);     // 4.0 per cell, the budget's lightest step
+  std::cout << "frames with a detection in 59: 300 in 8x8 " << base << ", 100 in 8x8 " << same_grid
+            << ", 100 in 5x5 " << scaled << "\n";
+  EXPECT_GE(same_grid, 2 * scaled);
+  EXPECT_LE(scaled, base + 3);
+}
+
 TEST(KltTracker, RestartStrategyRedetectsOnThePreviousImage) {
   const ViewPair views = warpedPair(kSize, translation(3.2, -1.7), 16);
   TrackerConfig cfg = lk();
