@@ -15,7 +15,7 @@
 ///   2. half of it
 ///   3. tracker.min_tracked_features features
 ///   4. auto only, for the frames it tracks by LK: one pyramid level less (tracker.pyramid_levels, at least
-///      1), no anchor refinement and an LK window of at most 11 px
+///      1), no anchor refinement and an LK window of at most 15 px
 ///   tracker.method klt, whose cost is also the window and the levels:
 ///   1. 70 % of the feature budget
 ///   2. one LK pyramid level less

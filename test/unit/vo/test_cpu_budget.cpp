@@ -62,10 +62,10 @@ TEST(CpuBudget, StepsGetLighterInTheDocumentedOrder) {
   for (int k = 1; k <= 3; ++k) EXPECT_EQ(budget.config(k).tracker, base.tracker) << "step " << k;
   EXPECT_EQ(budget.config(4).tracker.pyramid_levels, base.tracker.pyramid_levels - 1);
   EXPECT_FALSE(budget.config(4).tracker.anchor_refinement);
-  EXPECT_EQ(budget.config(4).tracker.window_size_px, 11);
+  EXPECT_EQ(budget.config(4).tracker.window_size_px, 15);
   EXPECT_EQ(budget.describe(1), "num_features 210, grid 7x7");
   EXPECT_EQ(budget.describe(4),
-            "num_features 100, grid 5x5, pyramid_levels 2, anchor_refinement off, window_size_px 11");
+            "num_features 100, grid 5x5, pyramid_levels 2, anchor_refinement off, window_size_px 15");
   expectRuntimeChangeable(budget, base);
 
   // anchor_alignment alone: the LK step changes nothing it uses and is not there.

@@ -198,7 +198,7 @@ TEST(PipelineReconfigure, KnobsChangeInPlaceWithoutAJumpOrANewScale) {
 TEST(PipelineReconfigure, CpuBudgetStepsChangeInPlace) {
   // Every step of the CPU budget's degradation path (lighter and lighter tracking, cpu_budget.h: fewer
   // features in a coarser grid, then LK's lighter window and levels), three frames apart, then straight back
-  // to the base: window 11 -> 21 px needs the previous pyramid rebuilt with its larger padding (LK asserts
+  // to the base: window 15 -> 21 px needs the previous pyramid rebuilt with its larger padding (LK asserts
   // it), and the anchors come back for the live tracks.
   const VoConfig base = clipConfig();
   const CpuBudget budget(base);
