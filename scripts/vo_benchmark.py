@@ -469,6 +469,11 @@ def main():
     with open(results_path, "w") as f:
         json.dump(results, f, indent=1)
     if args.write_docs:
+        missing = [g for g in order if not any(r["group"] == g for r in results)]
+        if missing:
+            print("vo_benchmark: warning: the table written to docs/results.md has no rows for " +
+                  ", ".join(missing) + " (never run into " + args.output + "; run them with --groups)",
+                  flush=True)
         write_docs(tables, results, args)
 
 
@@ -598,15 +603,16 @@ def write_docs(tables, results, args):
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
              "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "
              "or fewer than 90 % of the processed frames posed (lost).", "", tables, ""]
-    # The reading of the numbers is written by hand under "## What the table says"; keep it across runs.
+    # Everything under the generated table is written by hand: the "## ..." sections (earlier re-runs, "What the
+    # table says") up to the plots. Keep all of it across runs; only the table and the plots are regenerated.
     results_md = os.path.join(docs, "results.md")
     if os.path.exists(results_md):
         with open(results_md) as f:
             old = f.read()
-        start = old.find("## What the table says")
+        start = old.find("\n## ")
         if start >= 0:
             end = old.find("\n![", start)
-            lines += [old[start:end if end >= 0 else len(old)].rstrip(), ""]
+            lines += [old[start + 1:end if end >= 0 else len(old)].rstrip(), ""]
     for r in results:
         if r["config"] != "default" or r["group"] not in ("flight", "kitti", "heldout"):
             continue
