@@ -47,10 +47,10 @@ CpuBudget::CpuBudget(const VoConfig& base) : base_(base) {
     features = std::min(c->detector.num_features, features);
     c->detector.num_features = features;
     const double s = std::sqrt(static_cast<double>(features) / std::max(1, base.detector.num_features));
-    c->detector.grid_cols = std::clamp(static_cast<int>(std::lround(s * base.detector.grid_cols)), 1,
-                                       base.detector.grid_cols);
-    c->detector.grid_rows = std::clamp(static_cast<int>(std::lround(s * base.detector.grid_rows)), 1,
-                                       base.detector.grid_rows);
+    c->detector.grid_cols =
+        std::clamp(static_cast<int>(std::lround(s * base.detector.grid_cols)), 1, base.detector.grid_cols);
+    c->detector.grid_rows =
+        std::clamp(static_cast<int>(std::lround(s * base.detector.grid_rows)), 1, base.detector.grid_rows);
   };
   auto fraction = [&](double f) {
     return std::max(std::min(floor_features, base.detector.num_features),

@@ -357,7 +357,7 @@ TEST(KltTracker, FewerFeaturesInTheSameGridDetectOnMoreFrames) {
     }
     return frames;
   };
-  const int base = framesWithDetection(300, 8);      // the default: 4.7 features per cell
+  const int base = framesWithDetection(300, 8);       // the default: 4.7 features per cell
   const int same_grid = framesWithDetection(100, 8);  // 1.6 per cell
   const int scaled = framesWithDetection(100, 5);     // 4.0 per cell, the budget's lightest step
   std::cout << "frames with a detection in 59: 300 in 8x8 " << base << ", 100 in 8x8 " << same_grid
