@@ -1,6 +1,7 @@
-"""scripts/vo_benchmark.py --starts (docs/visual_core.md, step 8): a row run again from later input images with the
+"""scripts/vo_benchmark.py: --starts (docs/visual_core.md, step 8): a row run again from later input images with the
 real vo_run and vo_eval on the VO rostests' short Lunar descent (256 px, 6 s), each start scored like the row's
-own run, and the median over the starts as the benchmark prints it (a lost start counted as the worst)."""
+own run, and the median over the starts as the benchmark prints it (a lost start counted as the worst); and
+--write-docs, which keeps the hand-written sections of docs/results.md."""
 import json
 import os
 import shutil
@@ -54,6 +55,33 @@ class BenchmarkStarts(unittest.TestCase):
         self.assertEqual(vo_benchmark.fmt_starts(lost_first, "ate_percent"), "lost")
         self.assertEqual(vo_benchmark.fmt_starts({"ate_percent": 0.02}, "ate_percent"), "-")
         self.assertEqual(vo_benchmark.median([3.0, 1.0, 2.0, 4.0]), 2.5)
+
+    def test_write_docs_keeps_every_hand_written_section(self):
+        # --write-docs regenerates the table and the plots of docs/results.md; the sections written by hand
+        # under the table (earlier re-runs, "What the table says") stay, whichever groups were run this time.
+        import tempfile
+        import types
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "docs"))
+            results_md = os.path.join(root, "docs", "results.md")
+            with open(results_md, "w") as f:
+                f.write("# VO benchmark results\n\nold header\n\n| old table |\n\n"
+                        "## Re-run with the defaults of session 21\n\nkept 1\n\n"
+                        "## What the table says\n\nkept 2\n\n![plot](results/x.png)\n")
+            saved = vo_benchmark.ROOT
+            vo_benchmark.ROOT = root
+            try:
+                vo_benchmark.write_docs("| new table |", [], types.SimpleNamespace(duration=None, output=root))
+            finally:
+                vo_benchmark.ROOT = saved
+            with open(results_md) as f:
+                text = f.read()
+        self.assertIn("| new table |", text)
+        self.assertNotIn("| old table |", text)
+        self.assertIn("## Re-run with the defaults of session 21\n\nkept 1", text)
+        self.assertIn("## What the table says\n\nkept 2", text)
+        self.assertNotIn("results/x.png", text)  # the plots are written again from the rows run
+        self.assertLess(text.index("| new table |"), text.index("## Re-run"))
 
 
 if __name__ == "__main__":
