@@ -211,10 +211,8 @@ class FieldTexts {
 
 }  // namespace
 
-void Pipeline::reconfigure(const VoConfig& next) {
-  // Everything is checked before anything changes: a refused configuration leaves the pipeline as it was.
-  next.validate();
-  VoConfig runtime = config_;  // the current one with the runtime-changeable fields of `next`
+VoConfig withRuntimeChangeableFields(const VoConfig& current, const VoConfig& next) {
+  VoConfig runtime = current;
   runtime.detector.num_features = next.detector.num_features;
   runtime.detector.grid_cols = next.detector.grid_cols;
   runtime.detector.grid_rows = next.detector.grid_rows;
@@ -225,6 +223,13 @@ void Pipeline::reconfigure(const VoConfig& next) {
   runtime.tracker.anchor_refinement = next.tracker.anchor_refinement;
   runtime.map.keyframe_features = next.map.keyframe_features;
   runtime.cpu_budget = next.cpu_budget;  // not read by the pipeline
+  return runtime;
+}
+
+void Pipeline::reconfigure(const VoConfig& next) {
+  // Everything is checked before anything changes: a refused configuration leaves the pipeline as it was.
+  next.validate();
+  const VoConfig runtime = withRuntimeChangeableFields(config_, next);
   if (runtime != next) {
     FieldTexts have, want;
     config_detail::forEachField(runtime, have);

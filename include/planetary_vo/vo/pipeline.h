@@ -70,6 +70,10 @@ enum class PipelineStage : uint8_t {
 /// "initialising", "tracking", "recovering".
 const char* toString(PipelineStage stage);
 
+/// `current` with the fields of `next` that Pipeline::reconfigure() changes at runtime (the list documented
+/// there). It equals `next` exactly when `next` differs from `current` in those fields only.
+VoConfig withRuntimeChangeableFields(const VoConfig& current, const VoConfig& next);
+
 class Pipeline {
  public:
   /// @param config validated configuration (VoConfig::validate() is called; throws ConfigError).
