@@ -32,7 +32,7 @@ table and a summary; --json writes every trial; with --runs, OUT/summary.md and 
   draws (one run with --keep-images), e.g. to measure a change of the code or of --hazard-config on the same images;
   each run's draw must equal the earlier one's.
   common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
-          [--max-shading-slope-deg S]
+          [--max-shading-slope-deg S] [--shading-slope-weight W]
           [--reuse] [--json FILE] [--write-docs DIR]
 """
 import argparse
@@ -113,6 +113,8 @@ def evaluate(dataset, work, name, a, targets, vo_extra=()):
             cmd += ["--max-shadow-fraction", str(a.max_shadow_fraction)]
         if a.max_shading_slope_deg is not None:
             cmd += ["--max-shading-slope-deg", str(a.max_shading_slope_deg)]
+        if a.shading_slope_weight is not None:
+            cmd += ["--shading-slope-weight", str(a.shading_slope_weight)]
         log = os.path.join(work, tag + ".txt")
         run(cmd, log)
         m = re.search(r"confidence k = ([0-9.]+)", open(log).read())
@@ -302,6 +304,8 @@ def main():
                     help="terrain_eval --confidence-k (default: config/hazard.yaml's sites.confidence_k)")
     ap.add_argument("--max-shading-slope-deg", type=float, default=None,
                     help="terrain_eval --max-shading-slope-deg (a large value: the shading relief is ignored)")
+    ap.add_argument("--shading-slope-weight", type=float, default=None,
+                    help="terrain_eval --shading-slope-weight (0: the slope limit without the shading relief)")
     ap.add_argument("--max-shadow-fraction", type=float, default=None,
                     help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not unknown)")
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')

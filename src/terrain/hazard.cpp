@@ -26,9 +26,31 @@ cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const H
   return mask;
 }
 
+cv::Mat slopeWithShading(const cv::Mat& slope_deg, const cv::Mat& shading_slope_deg, double weight) {
+  if (!(weight >= 0.0) || !std::isfinite(weight))
+    throw std::invalid_argument("slopeWithShading: the weight must be finite and >= 0");
+  if (slope_deg.type() != CV_32FC1 ||
+      (!shading_slope_deg.empty() &&
+       (shading_slope_deg.type() != CV_32FC1 || shading_slope_deg.size() != slope_deg.size())))
+    throw std::invalid_argument("slopeWithShading: slope and shading must be CV_32F layers of one size");
+  cv::Mat out = slope_deg.clone();
+  if (shading_slope_deg.empty() || weight == 0.0) return out;
+  for (int row = 0; row < out.rows; ++row) {
+    float* o = out.ptr<float>(row);
+    const float* s = shading_slope_deg.ptr<float>(row);
+    for (int col = 0; col < out.cols; ++col)
+      if (std::isfinite(s[col])) o[col] = static_cast<float>(o[col] + weight * s[col]);
+  }
+  return out;
+}
+
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
                    const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds) {
-  cv::Mat mask = hazardMask(slope_deg, roughness_m, thresholds);
+  if (!shading_slope_deg.empty() &&
+      (shading_slope_deg.type() != CV_32FC1 || shading_slope_deg.size() != slope_deg.size()))
+    throw std::invalid_argument("hazardMask: the shading slope must be a CV_32F layer of the slope's size");
+  cv::Mat mask = hazardMask(slopeWithShading(slope_deg, shading_slope_deg, thresholds.shading_slope_weight),
+                            roughness_m, thresholds);
   for (const auto& [layer, name] :
        {std::pair<const cv::Mat&, const char*>{shadow_fraction, "shadow fraction"},
         std::pair<const cv::Mat&, const char*>{shading_slope_deg, "shading slope"}})

@@ -72,7 +72,8 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
        {{"max_slope_deg", &c->thresholds.max_slope_deg},
         {"max_roughness_m", &c->thresholds.max_roughness_m},
         {"max_shadow_fraction", &c->thresholds.max_shadow_fraction},
-        {"max_shading_slope_deg", &c->thresholds.max_shading_slope_deg}}},
+        {"max_shading_slope_deg", &c->thresholds.max_shading_slope_deg},
+        {"shading_slope_weight", &c->thresholds.shading_slope_weight}}},
       {"sites",
        {{"target_x_m", &c->sites.target_x_m},
         {"target_y_m", &c->sites.target_y_m},
@@ -338,6 +339,7 @@ HazardProducts HazardMapper::products() const {
         out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"),
         config_.area.footprint_diameter_m, &out.shading, config_.thresholds.max_shading_slope_deg);
     out.terrain.grids.parameters["max_shading_slope_deg"] = config_.thresholds.max_shading_slope_deg;
+    out.terrain.grids.parameters["shading_slope_weight"] = config_.thresholds.shading_slope_weight;
     out.terrain.grids.parameters["sun_elevation_deg"] = config_.shading.sun_elevation_deg;
   }
   const GridSet& g = out.terrain.grids;

@@ -41,6 +41,8 @@ void checkParams(const GridSet& grids, const HazardThresholds& t, const LandingS
     throw std::invalid_argument("landing sites: max_shadow_fraction must be in [0, 1]");
   if (!(t.max_shading_slope_deg > 0.0))
     throw std::invalid_argument("landing sites: max_shading_slope_deg must be positive");
+  if (!(t.shading_slope_weight >= 0.0) || !std::isfinite(t.shading_slope_weight))
+    throw std::invalid_argument("landing sites: shading_slope_weight must be finite and >= 0");
   if (p.max_sites < 1) throw std::invalid_argument("landing sites: max_sites must be >= 1");
   if (!(p.confidence_k >= 0.0) || !(p.min_separation_m >= 0.0) || !(p.distance_weight >= 0.0))
     throw std::invalid_argument("landing sites: k, separation and distance weight must be >= 0");
@@ -135,8 +137,14 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
   const cv::Mat sigma_slope_deg = sigmas.available ? sigmas.slope_deg : g.newLayer(0.0f);
   const cv::Mat sigma_rough_m = sigmas.available ? sigmas.roughness_m : g.newLayer(0.0f);
 
+  // Cells seen in shadow (terrain/shadow_map.h): their relief is unseen. Cells whose shading shows relief
+  // below the plane fit (terrain/shading_relief.h): hazards above max_shading_slope_deg, and their slope
+  // raised by shading_slope_weight times it (terrain/hazard.h).
+  const cv::Mat* shadow = findLayer(grids, "shadow_fraction", false);
+  const cv::Mat* shading = findLayer(grids, "shading_slope_deg", false);
   // Safe with confidence: the hazard mask of the raised slope and roughness (NaN stays unknown).
-  const cv::Mat slope_upper = slope + k * sigma_slope_deg;
+  const cv::Mat slope_upper = slopeWithShading(slope + k * sigma_slope_deg, shading ? *shading : cv::Mat(),
+                                               thresholds.shading_slope_weight);
   cv::Mat rough_upper = rough + k * sigma_rough_m;
   // Relief the map does not resolve: the points' RMS distance from their fitted planes (noise plus rocks
   // smaller than the plane-fit support), over the footprint; the roughness limit cannot be certified where it
@@ -148,12 +156,10 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
       for (int col = 0; col < g.cols; ++col)
         r[col] = std::isfinite(u[col]) ? std::max(r[col], u[col]) : std::numeric_limits<float>::quiet_NaN();
     }
-  // Cells seen in shadow (terrain/shadow_map.h): their relief is unseen. Cells whose shading shows relief
-  // below the plane fit (terrain/shading_relief.h): hazards.
-  const cv::Mat* shadow = findLayer(grids, "shadow_fraction", false);
-  const cv::Mat* shading = findLayer(grids, "shading_slope_deg", false);
+  HazardThresholds raised = thresholds;
+  raised.shading_slope_weight = 0.0;  // already in slope_upper
   const cv::Mat mask = hazardMask(slope_upper, rough_upper, shadow ? *shadow : cv::Mat(),
-                                  shading ? *shading : cv::Mat(), thresholds);
+                                  shading ? *shading : cv::Mat(), raised);
 
   // Clearance: distance to the nearest cell that is not safe with confidence; one border cell of unknown
   // around the grid so that leaving it counts too.

@@ -190,6 +190,70 @@ TEST(LandingSites, CellsSeenInShadowAreNotSafe) {
   EXPECT_THROW(findLandingSites(g, bad, params), std::invalid_argument);
 }
 
+TEST(LandingSites, TheShadingReliefRaisesTheSlopeByItsWeight) {
+  // Two equal discs at 7 deg (a plane fit that flattened a steeper wall, say); over the nearer one the
+  // shading reads 2 deg of relief under the plane (below max_shading_slope_deg, 3), over the farther one 0.5
+  // deg. The target at x = 4 m: the nearer disc's edge is 9 m from it, the farther one's 11 m. Weight 0:
+  // the shading is only a threshold, both discs qualify, the nearer first (slope margin 3 deg, 0.3 of the
+  // limit, the tightest). Weight 1: the nearer disc's slope is 9 deg (margin 1), the farther one's 7.5
+  // (margin 2.5), so the farther comes first (0.25 - 11 / 50 against 0.1 - 9 / 50); weight 2: the nearer
+  // one is 11 deg, a hazard, and only the farther qualifies.
+  GridSet g = twoEqualDiscs();
+  paintDisc(&g, -10.0, 0.0, 5.0, 7.0f, 0.05f);
+  paintDisc(&g, 20.0, 0.0, 5.0, 7.0f, 0.05f);
+  cv::Mat shading = g.geometry.newLayer(0.5f);
+  for (int row = 0; row < g.geometry.rows; ++row)
+    for (int col = 0; col < g.geometry.cols; ++col) {
+      if (g.geometry.x_m(col) < 5.0) shading.at<float>(row, col) = 2.0f;
+      if (g.geometry.x_m(col) > 27.0) shading.at<float>(row, col) = kNaN;  // not measured: the slope alone
+    }
+  g.layers["shading_slope_deg"] = shading;
+  LandingSiteParams params;
+  params.target_x_m = 4.0;
+  params.max_distance_from_target_m = 50.0;
+  params.min_separation_m = 1.0;  // every qualifying cell may come back: the cells of both discs
+  params.max_sites = 1000;
+  HazardThresholds t;
+  auto sitesAt = [](const LandingSiteResult& r, double x) {
+    int n = 0;
+    for (const LandingSite& s : r.sites) n += std::abs(s.x_m - x) <= 5.0;
+    return n;
+  };
+  t.shading_slope_weight = 0.0;  // the shading as a threshold only
+  LandingSiteResult r = findLandingSites(g, t, params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_LE(std::abs(r.sites[0].x_m + 10.0), 5.0);
+  EXPECT_NEAR(r.sites[0].slope_margin_deg, 3.0, 1e-5);
+  EXPECT_GT(sitesAt(r, -10.0), 0);
+  EXPECT_GT(sitesAt(r, 20.0), 0);
+  t.shading_slope_weight = 1.0;
+  r = findLandingSites(g, t, params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_LE(std::abs(r.sites[0].x_m - 20.0), 5.0);
+  EXPECT_NEAR(r.sites[0].slope_margin_deg, 2.5, 1e-5);
+  EXPECT_FLOAT_EQ(r.sites[0].slope_deg, 7.0f);  // the plane's slope, as estimated
+  EXPECT_GT(sitesAt(r, -10.0), 0);
+  for (const LandingSite& s : r.sites)
+    if (s.x_m < 0.0) EXPECT_NEAR(s.slope_margin_deg, 1.0, 1e-5);
+  t.shading_slope_weight = 2.0;
+  r = findLandingSites(g, t, params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_EQ(sitesAt(r, -10.0), 0);
+  EXPECT_GT(sitesAt(r, 20.0), 0);
+  // The hazard mask applies the same sum: 7 + 2 * 2 > 10 over the nearer disc, 7 + 2 * 0.5 <= 10 beyond.
+  const cv::Mat mask = hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], cv::Mat(), shading, t);
+  int col = 0, row = 0;
+  ASSERT_TRUE(g.geometry.cellAt(-10.0, 0.0, &col, &row));
+  EXPECT_EQ(mask.at<uint8_t>(row, col), kHazard);
+  ASSERT_TRUE(g.geometry.cellAt(20.0, 0.0, &col, &row));
+  EXPECT_EQ(mask.at<uint8_t>(row, col), kSafe);
+  t.shading_slope_weight = -1.0;
+  EXPECT_THROW(findLandingSites(g, t, params), std::invalid_argument);
+  EXPECT_THROW(slopeWithShading(g.layers["slope_deg"], shading, -1.0), std::invalid_argument);
+  EXPECT_THROW(slopeWithShading(g.layers["slope_deg"], shading(cv::Rect(0, 0, 10, 10)), 1.0),
+               std::invalid_argument);
+}
+
 TEST(LandingSites, UnknownCellsAreNeverSafe) {
   const HazardThresholds t;
   // An unknown slope 1.5 m from the disc centre: the centre's clearance drops to 1.5 m, so it is out.
