@@ -230,6 +230,12 @@ def summarise(results, a, k):
                      a.init_attitude_sigma_deg, a.sun_elevation, a.sun_azimuth, a.placement_ranks,
                      os.path.relpath(a.config, ROOT), a.hazard_config or "config/hazard.yaml's defaults",
                      "%g" % k if k is not None else "n/a", len(a.target_list)))
+    overrides = ["%s %g" % (flag, v) for flag, v in (
+        ("max_shadow_fraction", a.max_shadow_fraction), ("max_shading_slope_deg", a.max_shading_slope_deg),
+        ("shading_slope_weight", a.shading_slope_weight)) if v is not None]
+    if overrides:
+        lines[-1] += " Sites chosen and maps scored with thresholds " + ", ".join(overrides) + \
+            " (terrain_eval), the rest as in the hazard config."
     lines.append("")
     lines.append("| | count |")
     lines.append("|---|---|")

@@ -5,9 +5,16 @@ itself: its slope RMSE and hazard precision/recall must be terrain_eval's to the
 or the truth as sampled in place of the truth at the map's resolution, would not be: the latter gives 0.00 deg against
 2.03), and its white-noise table must fall with the noise. The shading-relief report is checked with the true roughness
 as the layer: it separates the truly rough cells from the truly safe ones perfectly (AUC 1, all flagged above 0.3 and
-none of the safe), which a mixed-up mask or a reversed AUC would not."""
+none of the safe), which a mixed-up mask or a reversed AUC would not.
+
+scripts/slope_weight_check.py on a campaign-shaped folder whose one "map" is the descent's true slope flattened by 2
+deg, with no slope sigma and a shading relief of 2 deg everywhere: with weight 1 the raised slope is the truth again,
+so no qualifying cell may have a true slope above 10 deg within 3 m (a clearance disc that did not match the site
+search's, or the shading not added, would leave some); with weight 0 the flattened slopes let such cells qualify, and
+weight 2 qualifies fewer cells than weight 1."""
 import json
 import os
+import numpy as np
 import re
 import shutil
 import subprocess
@@ -79,6 +86,38 @@ class TerrainErrors(unittest.TestCase):
         self.assertGreater(safe, 0, printed)
         self.assertIn("ROC AUC rough vs safe 1.000", printed)
         self.assertIn("above 0.3 deg: rough 1.000, safe 0.000", printed)
+
+
+    def test_slope_weight_check_counts_the_steep_cells_the_flattened_slope_lets_through(self):
+        dataset = env_or_exit("PLANETARY_VO_TEST_DATASET")
+        out = os.path.join(env_or_exit("TERRAIN_ERRORS_TEST_OUTPUT"), "weights")
+        sys.path.insert(0, os.path.join(ROOT, "scripts"))
+        from terrain_errors import read_tiff
+        from PIL import Image
+        shutil.rmtree(out, ignore_errors=True)
+        run = os.path.join(out, "runs", "run_000")
+        os.makedirs(os.path.join(run, "dataset"))
+        os.makedirs(os.path.join(run, "terrain"))
+        truth_path = os.path.join(dataset, "groundtruth_terrain_slope_deg.tiff")
+        shutil.copy(truth_path, os.path.join(run, "dataset", "groundtruth_terrain_slope_deg.tiff"))
+        truth = read_tiff(truth_path).astype(np.float32)
+        self.assertGreater(int(np.sum(truth > 10.0)), 100)  # the descent's terrain has steep cells
+        layers = {"slope_deg": truth - 2.0, "slope_sigma_deg": np.zeros_like(truth),
+                  "shading_slope_deg": np.full_like(truth, 2.0)}
+        for name, value in layers.items():
+            Image.fromarray(value.astype(np.float32), mode="F").save(
+                os.path.join(run, "terrain", "terrain_%s.tiff" % name))
+        done = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "slope_weight_check.py"), out,
+                               "--weights", "0,1,2"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        counts = {float(w): (int(n), int(bad)) for w, n, bad in re.findall(
+            r"w ([0-9.]+): (\d+) cells qualify, (\d+) \(", done.stdout)}
+        self.assertEqual(sorted(counts), [0.0, 1.0, 2.0], done.stdout)
+        self.assertGreater(counts[1.0][0], 0, done.stdout)
+        self.assertEqual(counts[1.0][1], 0, done.stdout)
+        self.assertGreater(counts[0.0][1], 0, done.stdout)
+        self.assertGreater(counts[0.0][0], counts[1.0][0], done.stdout)
+        self.assertLess(counts[2.0][0], counts[1.0][0], done.stdout)
 
 
 if __name__ == "__main__":
