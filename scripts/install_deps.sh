@@ -24,8 +24,9 @@ PACKAGES=(
   # glog: Ceres logs through it; vo_run sets its level
   libgoogle-glog-dev
   # plots of the trajectory evaluator; PyYAML for the sensitivity sweep's configurations (scripts/vo_sensitivity.py);
-  # SciPy for the hazard map's error breakdown (scripts/terrain_errors.py, test terrain_errors_tool)
-  python3-matplotlib python3-numpy python3-yaml python3-scipy
+  # SciPy for the hazard map's error breakdown (scripts/terrain_errors.py, test terrain_errors_tool); PIL writes the
+  # float TIFFs of that test's slope_weight_check.py case
+  python3-matplotlib python3-numpy python3-yaml python3-scipy python3-pil
   # GUI parts: rviz, headless X for screenshots in CI
   rviz xvfb xauth imagemagick
   # Monte Carlo campaigns on Slurm (scripts/vo_campaign.py --scheduler slurm; the campaign_slurm test starts a

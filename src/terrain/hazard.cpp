@@ -46,17 +46,14 @@ cv::Mat slopeWithShading(const cv::Mat& slope_deg, const cv::Mat& shading_slope_
 
 cv::Mat hazardMask(const cv::Mat& slope_deg, const cv::Mat& roughness_m, const cv::Mat& shadow_fraction,
                    const cv::Mat& shading_slope_deg, const HazardThresholds& thresholds) {
-  if (!shading_slope_deg.empty() &&
-      (shading_slope_deg.type() != CV_32FC1 || shading_slope_deg.size() != slope_deg.size()))
-    throw std::invalid_argument("hazardMask: the shading slope must be a CV_32F layer of the slope's size");
-  cv::Mat mask = hazardMask(slopeWithShading(slope_deg, shading_slope_deg, thresholds.shading_slope_weight),
-                            roughness_m, thresholds);
   for (const auto& [layer, name] :
        {std::pair<const cv::Mat&, const char*>{shadow_fraction, "shadow fraction"},
         std::pair<const cv::Mat&, const char*>{shading_slope_deg, "shading slope"}})
-    if (!layer.empty() && (layer.type() != CV_32FC1 || layer.size() != mask.size()))
+    if (!layer.empty() && (layer.type() != CV_32FC1 || layer.size() != slope_deg.size()))
       throw std::invalid_argument(std::string("hazardMask: the ") + name +
                                   " must be a CV_32F layer of the slope's size");
+  cv::Mat mask = hazardMask(slopeWithShading(slope_deg, shading_slope_deg, thresholds.shading_slope_weight),
+                            roughness_m, thresholds);
   for (int row = 0; row < mask.rows; ++row) {
     const float* f = shadow_fraction.empty() ? nullptr : shadow_fraction.ptr<float>(row);
     const float* s = shading_slope_deg.empty() ? nullptr : shading_slope_deg.ptr<float>(row);
