@@ -32,7 +32,7 @@ table and a summary; --json writes every trial; with --runs, OUT/summary.md and 
   draws (one run with --keep-images), e.g. to measure a change of the code or of --hazard-config on the same images;
   each run's draw must equal the earlier one's.
   common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
-          [--max-shading-slope-deg S] [--shading-slope-weight W]
+          [--max-shading-slope-deg S] [--shading-slope-weight W] [--shading-margin-m M]
           [--reuse] [--json FILE] [--write-docs DIR]
 """
 import argparse
@@ -115,6 +115,8 @@ def evaluate(dataset, work, name, a, targets, vo_extra=()):
             cmd += ["--max-shading-slope-deg", str(a.max_shading_slope_deg)]
         if a.shading_slope_weight is not None:
             cmd += ["--shading-slope-weight", str(a.shading_slope_weight)]
+        if a.shading_margin_m is not None:
+            cmd += ["--shading-margin-m", str(a.shading_margin_m)]
         log = os.path.join(work, tag + ".txt")
         run(cmd, log)
         m = re.search(r"confidence k = ([0-9.]+)", open(log).read())
@@ -232,7 +234,8 @@ def summarise(results, a, k):
                      "%g" % k if k is not None else "n/a", len(a.target_list)))
     overrides = ["%s %g" % (flag, v) for flag, v in (
         ("max_shadow_fraction", a.max_shadow_fraction), ("max_shading_slope_deg", a.max_shading_slope_deg),
-        ("shading_slope_weight", a.shading_slope_weight)) if v is not None]
+        ("shading_slope_weight", a.shading_slope_weight), ("shading_margin_m", a.shading_margin_m))
+        if v is not None]
     if overrides:
         lines[-1] += " Sites chosen and maps scored with thresholds " + ", ".join(overrides) + \
             " (terrain_eval), the rest as in the hazard config."
@@ -312,6 +315,8 @@ def main():
                     help="terrain_eval --max-shading-slope-deg (a large value: the shading relief is ignored)")
     ap.add_argument("--shading-slope-weight", type=float, default=None,
                     help="terrain_eval --shading-slope-weight (0: the slope limit without the shading relief)")
+    ap.add_argument("--shading-margin-m", type=float, default=None,
+                    help="terrain_eval --shading-margin-m (0: only the cells whose own shading exceeds the limit)")
     ap.add_argument("--max-shadow-fraction", type=float, default=None,
                     help="terrain_eval --max-shadow-fraction (1: cells seen in shadow are not unknown)")
     ap.add_argument("--targets", default="", help='"x,y;x,y;..." in metres (default: a 3 x 3 grid 64 m apart)')

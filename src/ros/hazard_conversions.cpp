@@ -91,6 +91,7 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.max_roughness_m = config.thresholds.max_roughness_m;
   msg.max_shadow_fraction = config.thresholds.max_shadow_fraction;
   msg.max_shading_slope_deg = config.thresholds.max_shading_slope_deg;
+  msg.shading_margin_m = config.thresholds.shading_margin_m;
   msg.shading_slope_weight = config.thresholds.shading_slope_weight;
   msg.sun_elevation_deg = config.shading.sun_elevation_deg;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
@@ -122,6 +123,7 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
                       {"max_roughness_m", msg.max_roughness_m},
                       {"max_shadow_fraction", msg.max_shadow_fraction},
                       {"max_shading_slope_deg", msg.max_shading_slope_deg},
+                      {"shading_margin_m", msg.shading_margin_m},
                       {"shading_slope_weight", msg.shading_slope_weight},
                       {"sun_elevation_deg", msg.sun_elevation_deg}};
   grids.description = msg.metric ? "hazard map (metric)" : "hazard map (NOT metric: the map's unit)";

@@ -73,6 +73,7 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"max_roughness_m", &c->thresholds.max_roughness_m},
         {"max_shadow_fraction", &c->thresholds.max_shadow_fraction},
         {"max_shading_slope_deg", &c->thresholds.max_shading_slope_deg},
+        {"shading_margin_m", &c->thresholds.shading_margin_m},
         {"shading_slope_weight", &c->thresholds.shading_slope_weight}}},
       {"sites",
        {{"target_x_m", &c->sites.target_x_m},
@@ -339,6 +340,7 @@ HazardProducts HazardMapper::products() const {
         out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"),
         config_.area.footprint_diameter_m, &out.shading, config_.thresholds.max_shading_slope_deg);
     out.terrain.grids.parameters["max_shading_slope_deg"] = config_.thresholds.max_shading_slope_deg;
+    out.terrain.grids.parameters["shading_margin_m"] = config_.thresholds.shading_margin_m;
     out.terrain.grids.parameters["shading_slope_weight"] = config_.thresholds.shading_slope_weight;
     out.terrain.grids.parameters["sun_elevation_deg"] = config_.shading.sun_elevation_deg;
   }
@@ -347,7 +349,8 @@ HazardProducts HazardMapper::products() const {
   const auto shading = g.layers.find("shading_slope_deg");
   out.hazard = hazardMask(g.layers.at("slope_deg"), g.layers.at("roughness_m"),
                           shadow == g.layers.end() ? cv::Mat() : shadow->second,
-                          shading == g.layers.end() ? cv::Mat() : shading->second, config_.thresholds);
+                          shading == g.layers.end() ? cv::Mat() : shading->second,
+                          shadingWithinMargin(g, config_.thresholds), config_.thresholds);
   cv::Mat hazard_f(out.hazard.size(), CV_32F);
   for (int r = 0; r < out.hazard.rows; ++r)
     for (int c = 0; c < out.hazard.cols; ++c) {

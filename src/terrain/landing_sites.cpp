@@ -39,6 +39,8 @@ void checkParams(const GridSet& grids, const HazardThresholds& t, const LandingS
     throw std::invalid_argument("landing sites: the hazard thresholds must be positive");
   if (!(t.max_shadow_fraction >= 0.0 && t.max_shadow_fraction <= 1.0))
     throw std::invalid_argument("landing sites: max_shadow_fraction must be in [0, 1]");
+  if (!(t.shading_margin_m >= 0.0) || !std::isfinite(t.shading_margin_m))
+    throw std::invalid_argument("landing sites: shading_margin_m must be finite and >= 0");
   if (!(t.max_shading_slope_deg > 0.0))
     throw std::invalid_argument("landing sites: max_shading_slope_deg must be positive");
   if (!(t.shading_slope_weight >= 0.0) || !std::isfinite(t.shading_slope_weight))
@@ -138,8 +140,9 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
   const cv::Mat sigma_rough_m = sigmas.available ? sigmas.roughness_m : g.newLayer(0.0f);
 
   // Cells seen in shadow (terrain/shadow_map.h): their relief is unseen. Cells whose shading shows relief
-  // below the plane fit (terrain/shading_relief.h): hazards above max_shading_slope_deg, and their slope
-  // raised by shading_slope_weight times it (terrain/hazard.h).
+  // below the plane fit (terrain/shading_relief.h): hazards above max_shading_slope_deg, and so are the
+  // cells within shading_margin_m of them; their slope raised by shading_slope_weight times it
+  // (terrain/hazard.h).
   const cv::Mat* shadow = findLayer(grids, "shadow_fraction", false);
   const cv::Mat* shading = findLayer(grids, "shading_slope_deg", false);
   // Safe with confidence: the hazard mask of the raised slope and roughness (NaN stays unknown).
@@ -159,7 +162,7 @@ LandingSiteResult findLandingSites(const GridSet& grids, const HazardThresholds&
   HazardThresholds raised = thresholds;
   raised.shading_slope_weight = 0.0;  // already in slope_upper
   const cv::Mat mask = hazardMask(slope_upper, rough_upper, shadow ? *shadow : cv::Mat(),
-                                  shading ? *shading : cv::Mat(), raised);
+                                  shading ? *shading : cv::Mat(), shadingWithinMargin(grids, thresholds), raised);
 
   // Clearance: distance to the nearest cell that is not safe with confidence; one border cell of unknown
   // around the grid so that leaving it counts too.

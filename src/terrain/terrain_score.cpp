@@ -42,7 +42,8 @@ TerrainScore scoreTerrain(const GridSet& truth, const GridSet& estimate, const H
   const auto shading = estimate.layers.find("shading_slope_deg");
   const cv::Mat hazard_est =
       hazardMask(s_est, r_est, shadow == estimate.layers.end() ? cv::Mat() : shadow->second,
-                 shading == estimate.layers.end() ? cv::Mat() : shading->second, thresholds);
+                 shading == estimate.layers.end() ? cv::Mat() : shading->second,
+                 shadingWithinMargin(estimate, thresholds), thresholds);
   TerrainScore score;
   score.cells = truth.geometry.rows * truth.geometry.cols;
   int true_elevation = 0, true_surface = 0;

@@ -75,6 +75,7 @@ TEST(HazardConversions, RastersRoundTripWithTheGeometry) {
     EXPECT_TRUE(sameBits(back.layers.at(name), products.terrain.grids.layers.at(name))) << name;
   EXPECT_EQ(back.parameters.at("max_shadow_fraction"), config.thresholds.max_shadow_fraction);
   EXPECT_EQ(back.parameters.at("max_shading_slope_deg"), config.thresholds.max_shading_slope_deg);
+  EXPECT_EQ(back.parameters.at("shading_margin_m"), config.thresholds.shading_margin_m);
   EXPECT_EQ(back.parameters.at("shading_slope_weight"), config.thresholds.shading_slope_weight);
   EXPECT_EQ(back.parameters.at("sun_elevation_deg"), config.shading.sun_elevation_deg);
   EXPECT_EQ(back.parameters.at("footprint_diameter_m"), config.area.footprint_diameter_m);

@@ -3,14 +3,14 @@
 ///
 ///   terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] [--max-slope-deg 10]
 ///                [--max-roughness-m 0.3] [--max-shadow-fraction 0.5] [--max-shading-slope-deg 3]
-///                [--shading-slope-weight W]
+///                [--shading-slope-weight W] [--shading-margin-m 2]
 ///                [--target-x-m 0 --target-y-m 0] [--max-divert-m 100] [--confidence-k 2.5] [--json FILE]
 ///                [--write-truth-at-resolution DIR]
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h; an estimate with the layer shadow_fraction has its cells seen in shadow unknown,
 /// as it publishes them, and one with the layer shading_slope_deg its cells above --max-shading-slope-deg
-/// hazards, and those whose slope plus --shading-slope-weight times it exceeds --max-slope-deg; a large
+/// and those within --shading-margin-m of them hazards, and those whose slope plus --shading-slope-weight times it exceeds --max-slope-deg; a large
 /// threshold and a weight 0 ignore that layer) against the truth as sampled, and, when
 /// the estimate says its plane-fit support (parameter support_radius_m), against the truth seen at that
 /// resolution (terrain/resolution.h); then the landing site the run chose (DIR/landing_sites.yaml, written by
@@ -42,7 +42,7 @@ int usage(const char* why) {
       stderr,
       "terrain_eval: %s\nusage: terrain_eval --gt DATASET_DIR --est DIR [--est-name terrain] "
       "[--max-slope-deg D] [--max-roughness-m M] [--max-shadow-fraction F] [--max-shading-slope-deg S] "
-      "[--shading-slope-weight W] "
+      "[--shading-slope-weight W] [--shading-margin-m M] "
       "[--target-x-m X --target-y-m Y] [--max-divert-m R] [--confidence-k K] [--json FILE] "
       "[--write-truth-at-resolution DIR]\n",
       why);
@@ -101,6 +101,8 @@ int main(int argc, char** argv) {
         thresholds.max_shadow_fraction = std::stod(value), choose_here = true;
       else if (arg == "--max-shading-slope-deg")
         thresholds.max_shading_slope_deg = std::stod(value), choose_here = true;
+      else if (arg == "--shading-margin-m")
+        thresholds.shading_margin_m = std::stod(value), choose_here = true;
       else if (arg == "--shading-slope-weight")
         thresholds.shading_slope_weight = std::stod(value), choose_here = true;
       else if (arg == "--target-x-m")

@@ -254,6 +254,85 @@ TEST(LandingSites, TheShadingReliefRaisesTheSlopeByItsWeight) {
                std::invalid_argument);
 }
 
+TEST(LandingSites, NoFootprintReachesReliefTheShadingShows) {
+  // A plain (8 deg, 0.05 m: safe, the slope the tightest margin) whose shading reads 0.5 deg of relief
+  // everywhere but at one cell 4 m east of the target, 4 deg (above max_shading_slope_deg, 3): a rock or a
+  // pit the plane fit smooths away, whose RMS over the footprints of the cells around it is diluted below
+  // the limit. With shading_margin_m 0 only that cell is a hazard, so the target itself (4 m from it,
+  // clearance 3 m) is the site, although its footprint (2 m) plus the dispersion (3 m) reaches the relief.
+  // With 2 m every cell within 2 m of it is a hazard too, and the site keeps the dispersion clear of them:
+  // at least 2 + 3 m from the relief.
+  GridSet g = hazardField(81, 81, -20.0, -20.0);
+  paintDisc(&g, 0.0, 0.0, 100.0, 8.0f, 0.05f);
+  cv::Mat shading = g.geometry.newLayer(0.5f);
+  int col = 0, row = 0;
+  ASSERT_TRUE(g.geometry.cellAt(4.0, 0.0, &col, &row));
+  shading.at<float>(row, col) = 4.0f;
+  for (int r = 0; r < g.geometry.rows; ++r) shading.at<float>(r, 0) = kNaN;  // not measured: no information
+  g.layers["shading_slope_deg"] = shading;
+  LandingSiteParams params;
+  params.max_distance_from_target_m = 15.0;
+  HazardThresholds t;
+  EXPECT_EQ(t.shading_margin_m, 2.0);  // the default: the footprint's radius
+  t.shading_margin_m = 0.0;
+  LandingSiteResult r = findLandingSites(g, t, params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_DOUBLE_EQ(r.sites[0].x_m, 0.0);
+  EXPECT_DOUBLE_EQ(r.sites[0].y_m, 0.0);
+  EXPECT_NEAR(r.sites[0].clearance_m, 4.0, 1e-4);
+  EXPECT_NEAR(r.sites[0].slope_margin_deg, 10.0 - 8.0 - 0.5 * 0.5, 1e-5);  // the weight on its own shading
+
+  t.shading_margin_m = 2.0;
+  r = findLandingSites(g, t, params);
+  ASSERT_FALSE(r.sites.empty()) << r.reason;
+  EXPECT_GE(std::hypot(r.sites[0].x_m - 4.0, r.sites[0].y_m), 2.0 + 3.0 - 1e-9);
+  EXPECT_LE(r.sites[0].distance_to_target_m, 3.0);  // west of the target, a clearance margin to spare
+  EXPECT_GE(r.sites[0].clearance_m, 3.0);
+  // The weight still applies to each cell's own shading, not to the largest one near it.
+  EXPECT_NEAR(r.sites[0].slope_margin_deg, 10.0 - 8.0 - 0.5 * 0.5, 1e-5);
+
+  // The layer the threshold is applied to: the largest shading within the margin (centre to centre), NaN
+  // not winning; and the hazard mask of the grid's layers with it.
+  const cv::Mat near = shadingWithinMargin(g, t);
+  const cv::Mat mask =
+      hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], cv::Mat(), shading, near, t);
+  auto at = [&](const cv::Mat& m, double x, double y) {
+    EXPECT_TRUE(g.geometry.cellAt(x, y, &col, &row));
+    return m.type() == CV_32F ? m.at<float>(row, col) : float(m.at<uint8_t>(row, col));
+  };
+  EXPECT_EQ(at(near, 4.0, 0.0), 4.0f);
+  EXPECT_EQ(at(near, 2.0, 0.0), 4.0f);   // 2 m: in
+  EXPECT_EQ(at(near, 4.0, -2.0), 4.0f);  // in
+  EXPECT_EQ(at(near, 2.0, 0.5), 0.5f);   // 2.06 m: out
+  EXPECT_EQ(at(near, -20.0, 0.0), 0.5f);  // an unmeasured cell with measured cells within the margin
+  EXPECT_EQ(at(mask, 2.0, 0.0), float(kHazard));
+  EXPECT_EQ(at(mask, 2.0, 0.5), float(kSafe));
+  EXPECT_EQ(at(hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], cv::Mat(), shading, t), 2.0, 0.0),
+            float(kSafe));  // the cell's own shading alone
+  EXPECT_THROW(hazardMask(g.layers["slope_deg"], g.layers["roughness_m"], cv::Mat(), shading, cv::Mat(), t),
+               std::invalid_argument);
+  t.shading_margin_m = 0.4;  // less than a cell: the layer as it is
+  {
+    cv::Mat a = shadingWithinMargin(g, t), b = shading.clone();
+    cv::patchNaNs(a, -7.0);
+    cv::patchNaNs(b, -7.0);
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  }
+  t.shading_margin_m = 2.0;
+  GridSet unmeasured = g;
+  unmeasured.layers["shading_slope_deg"] = g.geometry.newLayer();
+  const cv::Mat none_near = shadingWithinMargin(unmeasured, t);
+  EXPECT_EQ(cv::countNonZero(none_near == none_near), 0);  // all NaN
+  GridSet without = g;
+  without.layers.erase("shading_slope_deg");
+  EXPECT_TRUE(shadingWithinMargin(without, t).empty());
+  t.shading_margin_m = -1.0;
+  EXPECT_THROW(findLandingSites(g, t, params), std::invalid_argument);
+  EXPECT_THROW(shadingWithinMargin(g, t), std::invalid_argument);
+  t.shading_margin_m = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(findLandingSites(g, t, params), std::invalid_argument);
+}
+
 TEST(LandingSites, UnknownCellsAreNeverSafe) {
   const HazardThresholds t;
   // An unknown slope 1.5 m from the disc centre: the centre's clearance drops to 1.5 m, so it is out.
