@@ -11,7 +11,15 @@ scripts/slope_weight_check.py on a campaign-shaped folder whose one "map" is the
 deg, with no slope sigma and a shading relief of 2 deg everywhere: with weight 1 the raised slope is the truth again,
 so no qualifying cell may have a true slope above 10 deg within 3 m (a clearance disc that did not match the site
 search's, or the shading not added, would leave some); with weight 0 the flattened slopes let such cells qualify, and
-weight 2 qualifies fewer cells than weight 1."""
+weight 2 qualifies fewer cells than weight 1.
+
+scripts/site_risk_check.py on a synthetic campaign-shaped folder: four rocks whose true roughness is 0.4 m within 2 m
+of them (the footprints that cover them) on a 3 deg plain; the map sees the plain exactly and no rock (roughness 0.05
+m, no sigma), and its shading relief exceeds the limit only within 0.5 m of each rock (an RMS over the footprint,
+diluted beyond). With a shading margin of 2 m the hazard covers 2 m around each rock, so no qualifying cell may have a
+true hazard within 3 m (a margin or clearance disc not applied as the site search does would leave some); with 0 the
+cells 3.5-5 m from a rock qualify with one, and 0 qualifies more cells than 2. The Sun's elevation (30 deg) puts
+the map in the high-Sun bin."""
 import json
 import os
 import numpy as np
@@ -118,6 +126,40 @@ class TerrainErrors(unittest.TestCase):
         self.assertGreater(counts[0.0][1], 0, done.stdout)
         self.assertGreater(counts[0.0][0], counts[1.0][0], done.stdout)
         self.assertLess(counts[2.0][0], counts[1.0][0], done.stdout)
+
+    def test_site_risk_check_counts_the_hazards_a_diluted_shading_lets_through(self):
+        from PIL import Image
+        out = os.path.join(env_or_exit("TERRAIN_ERRORS_TEST_OUTPUT"), "risk")
+        shutil.rmtree(out, ignore_errors=True)
+        run = os.path.join(out, "runs", "run_000")
+        os.makedirs(os.path.join(run, "dataset"))
+        os.makedirs(os.path.join(run, "terrain"))
+        cell, n = 0.5, 161
+        y, x = (np.mgrid[0:n, 0:n] - n // 2) * cell
+        rocks = [(-20.0, -20.0), (20.0, -15.0), (-10.0, 18.0), (15.0, 20.0)]
+        distance = np.min([np.hypot(x - rx, y - ry) for rx, ry in rocks], axis=0)
+        truth = {"slope_deg": np.full((n, n), 3.0), "roughness_m": np.where(distance <= 2.0, 0.4, 0.05)}
+        est = {"slope_deg": np.full((n, n), 3.0), "roughness_m": np.full((n, n), 0.05),
+               "slope_sigma_deg": np.zeros((n, n)), "relief_sigma_m": np.zeros((n, n)),
+               "shading_slope_deg": np.where(distance <= 0.5, 4.0, 1.0)}
+        for folder, prefix, layers in ((os.path.join(run, "dataset"), "groundtruth_terrain", truth),
+                                       (os.path.join(run, "terrain"), "terrain", est)):
+            for name, value in layers.items():
+                Image.fromarray(value.astype(np.float32), mode="F").save(
+                    os.path.join(folder, "%s_%s.tiff" % (prefix, name)))
+        with open(os.path.join(run, "dataset", "sequence.yaml"), "w") as f:
+            f.write("sun:\n  elevation_deg: 30.0\n  azimuth_deg: 100.0\n")
+        done = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "site_risk_check.py"), out,
+                               "--margins", "0,2"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        counts = {float(m): (int(q), int(bad)) for m, q, bad in re.findall(
+            r"m ([0-9.]+):  Sun < 15 deg: 0 cells qualify, 0 \(0.00 %\) with a true hazard within 3 m;  "
+            r"Sun >= 15 deg: (\d+) cells qualify, (\d+) \(", done.stdout)}
+        self.assertEqual(sorted(counts), [0.0, 2.0], done.stdout)
+        self.assertGreater(counts[2.0][0], 1000, done.stdout)
+        self.assertEqual(counts[2.0][1], 0, done.stdout)
+        self.assertGreater(counts[0.0][1], 100, done.stdout)
+        self.assertGreater(counts[0.0][0], counts[2.0][0], done.stdout)
 
 
 if __name__ == "__main__":
