@@ -33,7 +33,7 @@ import yaml
 from scipy import ndimage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from slope_weight_check import disc, disc_max, layer  # noqa: E402
+from slope_weight_check import add_qualification_args, disc, disc_max, layer  # noqa: E402
 
 
 def sun_elevation_deg(dataset):
@@ -48,14 +48,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("campaigns", nargs="+")
     ap.add_argument("--margins", default="0,1,2")
-    ap.add_argument("--k", type=float, default=2.5)
+    add_qualification_args(ap)
     ap.add_argument("--weight", type=float, default=0.5, help="shading_slope_weight")
-    ap.add_argument("--max-slope-deg", type=float, default=10.0)
     ap.add_argument("--max-roughness-m", type=float, default=0.3)
-    ap.add_argument("--max-shading-slope-deg", type=float, default=3.0)
-    ap.add_argument("--max-shadow-fraction", type=float, default=0.5)
-    ap.add_argument("--clearance-m", type=float, default=3.0)
-    ap.add_argument("--footprint-m", type=float, default=4.0)
     ap.add_argument("--cell-m", type=float, default=0.5, help="the landing area's cell size (config/hazard.yaml)")
     ap.add_argument("--low-sun-deg", type=float, default=15.0)
     a = ap.parse_args()

@@ -46,16 +46,22 @@ def layer(folder, prefix, name):
     return read_tiff(path) if os.path.exists(path) else None
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("campaigns", nargs="+")
-    ap.add_argument("--weights", default="0,0.5,1,2")
+def add_qualification_args(ap):
+    """The site search's settings the qualification replicates (defaults: config/hazard.yaml's), shared with
+    site_risk_check.py."""
     ap.add_argument("--k", type=float, default=2.5)
     ap.add_argument("--max-slope-deg", type=float, default=10.0)
     ap.add_argument("--max-shading-slope-deg", type=float, default=3.0)
     ap.add_argument("--max-shadow-fraction", type=float, default=0.5)
     ap.add_argument("--clearance-m", type=float, default=3.0)
     ap.add_argument("--footprint-m", type=float, default=4.0)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("campaigns", nargs="+")
+    ap.add_argument("--weights", default="0,0.5,1,2")
+    add_qualification_args(ap)
     a = ap.parse_args()
     weights = [float(w) for w in a.weights.split(",")]
     totals = {w: [0, 0] for w in weights}

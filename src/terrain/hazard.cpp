@@ -1,12 +1,16 @@
 #include "planetary_vo/terrain/hazard.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
+
+#include "planetary_vo/terrain/surface_analysis.h"
 
 namespace planetary_vo::terrain {
 
@@ -40,13 +44,14 @@ cv::Mat shadingWithinMargin(const GridSet& grids, const HazardThresholds& thresh
   if (!(margin >= 0.0) || !std::isfinite(margin))
     throw std::invalid_argument("shadingWithinMargin: shading_margin_m must be finite and >= 0");
   if (!(g.cell_size_m > 0.0)) throw std::invalid_argument("shadingWithinMargin: non-positive cell size");
-  const int R = static_cast<int>(std::floor(margin / g.cell_size_m + 1e-9));
-  if (R == 0) return shading.clone();
-  // The disc of the cells whose centres are within the margin; an unmeasured cell (NaN) must not win.
+  if (margin < g.cell_size_m) return shading.clone();  // no neighbour's centre within it
+  // The cells whose centres are within the margin: the footprint disc of that radius (surface_analysis.h).
+  const std::vector<cv::Point> disc = footprintOffsets(g.cell_size_m, 2.0 * margin);
+  int R = 0;
+  for (const cv::Point& o : disc) R = std::max(R, o.x);
   cv::Mat kernel = cv::Mat::zeros(2 * R + 1, 2 * R + 1, CV_8U);
-  for (int dy = -R; dy <= R; ++dy)
-    for (int dx = -R; dx <= R; ++dx)
-      if (std::hypot(dx, dy) * g.cell_size_m <= margin + 1e-9) kernel.at<uint8_t>(dy + R, dx + R) = 1;
+  for (const cv::Point& o : disc) kernel.at<uint8_t>(o.y + R, o.x + R) = 1;
+  // An unmeasured cell (NaN) must not win the maximum.
   cv::Mat v = shading.clone(), out;
   constexpr float kNone = -std::numeric_limits<float>::infinity();
   cv::patchNaNs(v, kNone);

@@ -33,8 +33,8 @@ struct HazardThresholds {
   /// would certify at a Sun of 15 deg or more, those with a truly hazardous cell within 3 m fell from 2.0 %
   /// to 0.26 %, keeping 54 % of them; held out (seed 9, 16 runs at 15-45 deg), from 2.3 % to none, keeping
   /// 48 %. At a lower Sun less on seeds 5-8 (8.7 % -> 7.6 %); held out (seed 10, 16 runs at 5-15 deg) 2.2 % ->
-  /// 0.6 %, keeping 65 %. Chosen sites over seeds 5-8: 6 of 173 unsafe
-  /// against 14 of 195 (docs/terrain/README.md).
+  /// 0.6 %, keeping 65 %. Chosen sites over seeds 5-8: 6 of 173 unsafe against 14 of 195
+  /// (docs/terrain/README.md).
   double shading_margin_m = 2.0;
   /// The slope compared with max_slope_deg is the plane's slope plus this times the shading relief, where a
   /// shading layer is given: relief under the plane fit tilts the footprint by about its own RMS slope, which

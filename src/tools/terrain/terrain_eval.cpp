@@ -9,9 +9,10 @@
 ///
 /// Prints coverage, elevation, slope and roughness errors and the hazard map's precision and recall
 /// (terrain/terrain_score.h; an estimate with the layer shadow_fraction has its cells seen in shadow unknown,
-/// as it publishes them, and one with the layer shading_slope_deg its cells above --max-shading-slope-deg
-/// and those within --shading-margin-m of them hazards, and those whose slope plus --shading-slope-weight times it exceeds --max-slope-deg; a large
-/// threshold and a weight 0 ignore that layer) against the truth as sampled, and, when
+/// as it publishes them, and one with the layer shading_slope_deg its cells above --max-shading-slope-deg and
+/// those within --shading-margin-m of them hazards, and those whose slope plus --shading-slope-weight times it
+/// exceeds --max-slope-deg; a large threshold and a weight 0 ignore that layer) against the truth as sampled,
+/// and, when
 /// the estimate says its plane-fit support (parameter support_radius_m), against the truth seen at that
 /// resolution (terrain/resolution.h); then the landing site the run chose (DIR/landing_sites.yaml, written by
 /// vo_run --output-terrain and by hazard_recorder from the hazard nodelet) or, when the file is absent or a

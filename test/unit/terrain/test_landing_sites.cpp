@@ -233,8 +233,11 @@ TEST(LandingSites, TheShadingReliefRaisesTheSlopeByItsWeight) {
   EXPECT_NEAR(r.sites[0].slope_margin_deg, 2.5, 1e-5);
   EXPECT_FLOAT_EQ(r.sites[0].slope_deg, 7.0f);  // the plane's slope, as estimated
   EXPECT_GT(sitesAt(r, -10.0), 0);
-  for (const LandingSite& s : r.sites)
-    if (s.x_m < 0.0) EXPECT_NEAR(s.slope_margin_deg, 1.0, 1e-5);
+  for (const LandingSite& s : r.sites) {
+    if (s.x_m < 0.0) {
+      EXPECT_NEAR(s.slope_margin_deg, 1.0, 1e-5);
+    }
+  }
   t.shading_slope_weight = 2.0;
   r = findLandingSites(g, t, params);
   ASSERT_FALSE(r.sites.empty()) << r.reason;
