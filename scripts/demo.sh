@@ -51,9 +51,10 @@ NUM_IMAGES="$(grep -vc '^#' "$DATASET/times.txt")"
 SPAN="$(awk '!/^#/ { if (n++ == 0) first = $1; last = $1 } END { printf "%.1f", last - first }' "$DATASET/times.txt")"
 SPAN_S="${SPAN%.*}"
 
-# The Sun's elevation the sequence was rendered with: the ephemeris a mission has for its landing time, which the
-# hazard map's shading relief needs (terrain/shading_relief.h).
+# The Sun's elevation and azimuth the sequence was rendered with: the ephemeris a mission has for its landing time,
+# which the hazard map's shading relief needs (terrain/shading_relief.h).
 SUN_ELEVATION_DEG="$(awk '/^sun:/ { s = 1 } s && /elevation_deg:/ { print $2; exit }' "$DATASET/sequence.yaml")"
+SUN_AZIMUTH_DEG="$(awk '/^sun:/ { s = 1 } s && /azimuth_deg:/ { print $2; exit }' "$DATASET/sequence.yaml")"
 
 echo "== 2/4 running the AGNC chain through ROS: roslaunch planetary_vo agnc.launch (real time, ${SPAN} s, headless)"
 rm -rf "$OUT/trajectory.txt" "$OUT/groundtruth.txt" "$OUT/hazard"
@@ -63,7 +64,7 @@ rm -rf "$OUT/trajectory.txt" "$OUT/groundtruth.txt" "$OUT/hazard"
 timeout --signal=INT --kill-after=20 "$((SPAN_S * 3 + 120))" \
   roslaunch -p "$PORT" planetary_vo agnc.launch dataset:="$DATASET" rviz:=false exit_when_done:=true \
   est_output:="$OUT/trajectory.txt" gt_output:="$OUT/groundtruth.txt" hazard_output:="$OUT/hazard" \
-  sun_elevation_deg:="${SUN_ELEVATION_DEG:-0}" </dev/null 2>&1 | tee "$OUT/roslaunch.txt"
+  sun_elevation_deg:="${SUN_ELEVATION_DEG:-0}" sun_azimuth_deg:="${SUN_AZIMUTH_DEG:--1}" </dev/null 2>&1 | tee "$OUT/roslaunch.txt"
 POSES="$(grep -vc '^#' "$OUT/trajectory.txt" || true)"
 if [ "$POSES" -lt 3 ]; then
   echo "demo: the VO wrote only $POSES poses to $OUT/trajectory.txt (see $OUT/roslaunch.txt)" >&2

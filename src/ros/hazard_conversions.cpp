@@ -94,6 +94,7 @@ HazardMap toHazardMapMsg(const terrain::HazardProducts& products, const terrain:
   msg.shading_margin_m = config.thresholds.shading_margin_m;
   msg.shading_slope_weight = config.thresholds.shading_slope_weight;
   msg.sun_elevation_deg = config.shading.sun_elevation_deg;
+  msg.sun_azimuth_deg = config.shading.sun_azimuth_deg;
   msg.num_points = static_cast<uint32_t>(products.terrain.num_points);
   msg.cells_known = products.terrain.cells_known;
   sensor_msgs::Image* out[kNumRasterLayers] = {
@@ -125,7 +126,8 @@ terrain::GridSet fromHazardMapMsg(const HazardMap& msg) {
                       {"max_shading_slope_deg", msg.max_shading_slope_deg},
                       {"shading_margin_m", msg.shading_margin_m},
                       {"shading_slope_weight", msg.shading_slope_weight},
-                      {"sun_elevation_deg", msg.sun_elevation_deg}};
+                      {"sun_elevation_deg", msg.sun_elevation_deg},
+                      {"sun_azimuth_deg", msg.sun_azimuth_deg}};
   grids.description = msg.metric ? "hazard map (metric)" : "hazard map (NOT metric: the map's unit)";
   return grids;
 }

@@ -15,13 +15,15 @@ ShadingRelief::ShadingRelief(const PinholeCamera& camera, const ShadingReliefCon
   std::string why;
   if (!camera_.isValid(&why)) throw std::invalid_argument("ShadingRelief: invalid camera: " + why);
   if (!(config_.sun_elevation_deg >= 0.0 && config_.sun_elevation_deg <= 89.0) ||
+      !(config_.sun_azimuth_deg < 0.0 || config_.sun_azimuth_deg <= 360.0) ||
       !(config_.min_sun_elevation_deg >= 0.0 && config_.min_sun_elevation_deg <= 89.0) ||
       !(config_.band_min_m > 0.0 && config_.band_max_m > config_.band_min_m &&
         std::isfinite(config_.band_max_m)) ||
       !(config_.max_pixel_footprint_m > 0.0 && std::isfinite(config_.max_pixel_footprint_m)) ||
       config_.max_keyframes < 1)
     throw std::invalid_argument(
-        "ShadingRelief: invalid configuration (sun_elevation_deg and min_sun_elevation_deg in [0, 89], 0 < "
+        "ShadingRelief: invalid configuration (sun_elevation_deg and min_sun_elevation_deg in [0, 89], "
+        "sun_azimuth_deg negative or at most 360, 0 < "
         "band_min_m < band_max_m, "
         "max_pixel_footprint_m > 0, max_keyframes >= 1)");
 }
@@ -118,7 +120,8 @@ cv::Mat ShadingRelief::slopeRms(const GridGeometry& geometry, const cv::Mat& ele
   for (int dr = -reach; dr <= reach; ++dr)
     for (int dc = -reach; dc <= reach; ++dc)
       if (dr * dr + dc * dc <= radius_cells * radius_cells) disc.emplace_back(dc, dr);
-  const double to_deg = std::tan(config_.sun_elevation_deg * M_PI / 180.0) * 180.0 / M_PI;
+  // The slope a relative brightness means: tan of the Sun's elevation over the ground the relief sits on.
+  const cv::Mat sun_deg = localSunElevationDeg(geometry, elevation_m, 0.5 * footprint_diameter_m);
   for (int row = 0; row < geometry.rows; ++row) {
     float* out = result.ptr<float>(row);
     const float* z = elevation_m.ptr<float>(row);
@@ -135,13 +138,54 @@ cv::Mat ShadingRelief::slopeRms(const GridGeometry& geometry, const cv::Mat& ele
         ++n;
       }
       if (2 * n < static_cast<int>(disc.size())) continue;
-      out[col] = static_cast<float>(std::sqrt(sum / n) * to_deg);
+      const double sun = std::max<double>(sun_deg.at<float>(row, col), config_.min_sun_elevation_deg);
+      out[col] = static_cast<float>(std::sqrt(sum / n) * std::tan(sun * M_PI / 180.0) * 180.0 / M_PI);
       ++s.cells_measured;
       if (out[col] > above_deg) ++s.cells_above;
     }
   }
   if (stats) *stats = s;
   return result;
+}
+
+cv::Mat ShadingRelief::localSunElevationDeg(const GridGeometry& geometry, const cv::Mat& elevation_m,
+                                            double radius_m) const {
+  if (elevation_m.type() != CV_32FC1 || elevation_m.rows != geometry.rows ||
+      elevation_m.cols != geometry.cols)
+    throw std::invalid_argument(
+        "ShadingRelief::localSunElevationDeg: the elevation is not a CV_32F layer of the grid");
+  cv::Mat out = geometry.newLayer();
+  const double e = config_.sun_elevation_deg * M_PI / 180.0;
+  const bool level = config_.sun_azimuth_deg < 0.0;
+  const double a = level ? 0.0 : config_.sun_azimuth_deg * M_PI / 180.0;
+  const Eigen::Vector3d sun(std::cos(e) * std::sin(a), std::cos(e) * std::cos(a), std::sin(e));
+  const int k = std::max(1, static_cast<int>(std::lround(radius_m / geometry.cell_size_m)));
+  const double step_m = k * geometry.cell_size_m;
+  // dz per metre along one axis from z at -k, 0 and +k cells (NaN = unknown or outside).
+  const auto gradient = [step_m](double minus, double centre, double plus) {
+    if (std::isfinite(minus) && std::isfinite(plus)) return (plus - minus) / (2.0 * step_m);
+    if (std::isfinite(plus)) return (plus - centre) / step_m;
+    if (std::isfinite(minus)) return (centre - minus) / step_m;
+    return 0.0;
+  };
+  const auto z = [&](int c, int r) {
+    return geometry.contains(c, r) ? double(elevation_m.at<float>(r, c)) : std::nan("");
+  };
+  for (int row = 0; row < geometry.rows; ++row)
+    for (int col = 0; col < geometry.cols; ++col) {
+      const double centre = z(col, row);
+      if (!std::isfinite(centre)) continue;
+      if (level) {
+        out.at<float>(row, col) = static_cast<float>(config_.sun_elevation_deg);
+        continue;
+      }
+      const double dz_dx = gradient(z(col - k, row), centre, z(col + k, row));
+      const double dz_dy = gradient(z(col, row - k), centre, z(col, row + k));
+      const Eigen::Vector3d normal = Eigen::Vector3d(-dz_dx, -dz_dy, 1.0).normalized();
+      const double sine = std::clamp(normal.dot(sun), -1.0, 1.0);
+      out.at<float>(row, col) = static_cast<float>(std::asin(sine) * 180.0 / M_PI);
+    }
+  return out;
 }
 
 }  // namespace planetary_vo::terrain

@@ -54,6 +54,8 @@ bool sameBits(const cv::Mat& a, const cv::Mat& b) {
 TEST(HazardConversions, RastersRoundTripWithTheGeometry) {
   const terrain::HazardProducts products = someProducts();
   terrain::HazardMapperConfig config;
+  config.shading.sun_elevation_deg = 12.0;
+  config.shading.sun_azimuth_deg = 250.0;
   std_msgs::Header header;
   header.frame_id = "world";
   header.stamp = ros::Time(1000, 5);
@@ -78,6 +80,7 @@ TEST(HazardConversions, RastersRoundTripWithTheGeometry) {
   EXPECT_EQ(back.parameters.at("shading_margin_m"), config.thresholds.shading_margin_m);
   EXPECT_EQ(back.parameters.at("shading_slope_weight"), config.thresholds.shading_slope_weight);
   EXPECT_EQ(back.parameters.at("sun_elevation_deg"), config.shading.sun_elevation_deg);
+  EXPECT_EQ(back.parameters.at("sun_azimuth_deg"), config.shading.sun_azimuth_deg);
   EXPECT_EQ(back.parameters.at("footprint_diameter_m"), config.area.footprint_diameter_m);
   EXPECT_EQ(back.parameters.at("max_slope_deg"), config.thresholds.max_slope_deg);
 

@@ -70,6 +70,7 @@ struct Options {
   std::string terrain_dir;
   std::string hazard_config_path;
   double sun_elevation_deg = -1.0;  ///< < 0: the hazard config's, or when that is 0 the dataset's
+  double sun_azimuth_deg = -1.0;    ///< < 0: the hazard config's, or when that is < 0 the dataset's
   Eigen::Vector3d initial_error_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d initial_error_deg = Eigen::Vector3d::Zero();
   double cpu_budget_ms = -1.0;  ///< < 0: the configuration's cpu_budget.frame_budget_ms
@@ -80,16 +81,15 @@ struct Options {
 
 /// The Sun's elevation (deg) in a rendered dataset's sequence.yaml (`sun: elevation_deg`), the ephemeris a
 /// mission would have for its landing; 0 when absent or not readable (real data).
-double datasetSunElevationDeg(const std::string& sequence_yaml) {
+/// sun/<key> of the dataset's sequence.yaml (the ephemeris it was rendered with), `missing` when absent or
+/// malformed; the range is the shading config's to check.
+double datasetSunDeg(const std::string& sequence_yaml, const char* key, double missing) {
   try {
     const YAML::Node root = YAML::Load(sequence_yaml);
-    if (root && root.IsMap() && root["sun"] && root["sun"]["elevation_deg"]) {
-      const double v = root["sun"]["elevation_deg"].as<double>();
-      if (v > 0.0) return v;  // the range is the shading config's to check
-    }
+    if (root && root.IsMap() && root["sun"] && root["sun"][key]) return root["sun"][key].as<double>();
   } catch (const YAML::Exception&) {
   }
-  return 0.0;
+  return missing;
 }
 
 /// A finite number >= lo from text; false when malformed.
@@ -152,6 +152,9 @@ void usage(std::ostream& out) {
          "                    shading relief of the hazard map (terrain/shading_relief.h); 0 = none.\n"
          "                    Default: the hazard config's, or when that is 0 the dataset's\n"
          "                    sequence.yaml sun\n"
+         "  --sun-azimuth-deg A  the Sun's azimuth (the ephemeris; from +y, downrange, toward +x), so that\n"
+         "                    the shading relief is read against the Sun over the map's own ground.\n"
+         "                    Default: the hazard config's, or when that is negative the dataset's\n"
          "  --initial-state-from-groundtruth\n"
          "                    start at the dataset's first ground-truth pose (the state guidance hands "
          "over;\n"
@@ -245,6 +248,13 @@ bool parseArgs(int argc, char** argv, Options* options) {
       if (!value(&text)) return false;
       if (!parseAtLeast(text, 0.0, &options->sun_elevation_deg)) {
         std::cerr << "vo_run: --sun-elevation-deg needs a number >= 0, got '" << text << "'\n";
+        return false;
+      }
+    } else if (arg == "--sun-azimuth-deg") {
+      std::string text;
+      if (!value(&text)) return false;
+      if (!parseAtLeast(text, 0.0, &options->sun_azimuth_deg) || options->sun_azimuth_deg > 360.0) {
+        std::cerr << "vo_run: --sun-azimuth-deg needs a number in [0, 360], got '" << text << "'\n";
         return false;
       }
     } else if (arg == "--output-velocity") {
@@ -411,8 +421,18 @@ int main(int argc, char** argv) {
       } else if (hazard_config.shading.sun_elevation_deg > 0.0) {
         sun_source = "the hazard config";
       } else {
-        hazard_config.shading.sun_elevation_deg = datasetSunElevationDeg(dataset.sequenceYaml());
+        hazard_config.shading.sun_elevation_deg =
+            std::max(0.0, datasetSunDeg(dataset.sequenceYaml(), "elevation_deg", 0.0));
         sun_source = "the dataset's sequence.yaml (the ephemeris of the landing)";
+      }
+      std::string azimuth_source = "--sun-azimuth-deg";
+      if (options.sun_azimuth_deg >= 0.0) {
+        hazard_config.shading.sun_azimuth_deg = options.sun_azimuth_deg;
+      } else if (hazard_config.shading.sun_azimuth_deg >= 0.0) {
+        azimuth_source = "the hazard config";
+      } else {
+        hazard_config.shading.sun_azimuth_deg = datasetSunDeg(dataset.sequenceYaml(), "azimuth_deg", -1.0);
+        azimuth_source = "the dataset's sequence.yaml";
       }
       const terrain::ShadingReliefConfig& shading = hazard_config.shading;
       if (!options.quiet && shading.enabled) {
@@ -424,9 +444,16 @@ int main(int argc, char** argv) {
               "terrain: Sun elevation %.1f deg from %s, below %.0f deg: shading relief off (the shadows take "
               "over)\n",
               shading.sun_elevation_deg, sun_source.c_str(), shading.min_sun_elevation_deg);
+        else if (shading.sun_azimuth_deg < 0.0)
+          std::printf(
+              "terrain: Sun elevation %.1f deg from %s: shading relief on; no Sun azimuth (not given by %s): "
+              "the ground under each cell taken as level\n",
+              shading.sun_elevation_deg, sun_source.c_str(), azimuth_source.c_str());
         else
-          std::printf("terrain: Sun elevation %.1f deg from %s: shading relief on\n",
-                      shading.sun_elevation_deg, sun_source.c_str());
+          std::printf(
+              "terrain: Sun elevation %.1f deg from %s, azimuth %.1f deg from %s: shading relief on, read "
+              "against the Sun over the map's ground\n",
+              shading.sun_elevation_deg, sun_source.c_str(), shading.sun_azimuth_deg, azimuth_source.c_str());
       }
       hazard_mapper.emplace(hazard_config);
       hazard_mapper->setCamera(dataset.camera());

@@ -94,6 +94,8 @@ TEST(HazardMapperConfig, EveryBadKeyIsNamed) {
   EXPECT_THROW(parseHazardMapperConfig("thresholds: {max_slope_deg: 0}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("thresholds: {shading_margin_m: -0.5}\n"), HazardConfigError);
   EXPECT_NO_THROW(parseHazardMapperConfig("thresholds: {shading_margin_m: 0}\n"));
+  EXPECT_THROW(parseHazardMapperConfig("shading: {sun_azimuth_deg: 400}\n"), HazardConfigError);
+  EXPECT_EQ(parseHazardMapperConfig("shading: {sun_azimuth_deg: 250}\n").shading.sun_azimuth_deg, 250.0);
   EXPECT_THROW(parseHazardMapperConfig("densifier: {grid_step_px: 0}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("sites: {max_sites: 0}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("map: {support_radius_m: .nan}\n"), HazardConfigError);

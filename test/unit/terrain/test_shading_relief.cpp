@@ -3,7 +3,9 @@
 // fit over the 4 m footprint would see. The washboard reads its RMS slope times the band's transfer at
 // 4 m (about 0.73) and the same at two Sun elevations (the tan(e) normalisation); the level half reads
 // near zero; the hazard mask marks the washboard a hazard only with the layer; no Sun (or one below
-// min_sun_elevation_deg), no layer.
+// min_sun_elevation_deg), no layer. On ground tilted toward or away from the Sun, the same washboard reads
+// the same with the Sun's azimuth given (the Sun over the map's ground), and tan(e) / tan(e over the ground)
+// of it without.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -51,6 +53,28 @@ cv::Mat render(const PinholeCamera& camera, const Pose& T_world_cam, double sun_
 }
 
 using test::nadirAt;
+
+/// The same washboard on ground tilted by `tilt_deg` about the y axis, toward the Sun (at azimuth 90 deg, +x)
+/// when positive: the plane z = -tan(tilt) x, the washboard's gradient added to the plane's. Level ground
+/// under the Sun at `sun_elevation_deg` would be 90 DN (headroom for the brighter side).
+cv::Mat renderTilted(const PinholeCamera& camera, const Pose& T_world_cam, double sun_elevation_deg,
+                     double tilt_deg) {
+  const double e = sun_elevation_deg * M_PI / 180.0, tan_tilt = std::tan(tilt_deg * M_PI / 180.0);
+  const Eigen::Vector3d sun(std::cos(e), 0.0, std::sin(e));
+  cv::Mat image(camera.height(), camera.width(), CV_8U);
+  const Eigen::Vector3d o = T_world_cam.translation();
+  for (int r = 0; r < image.rows; ++r)
+    for (int c = 0; c < image.cols; ++c) {
+      const Eigen::Vector3d d = T_world_cam.linear() * camera.distortedPixelToBearing({double(c), double(r)});
+      // o + l d on z = -tan_tilt x.
+      const double l = -(o.z() + tan_tilt * o.x()) / (d.z() + tan_tilt * d.x());
+      const Eigen::Vector3d p = o + l * d;
+      const Eigen::Vector3d n = Eigen::Vector3d(tan_tilt - gradientX(p.x()), 0.0, 1.0).normalized();
+      const double value = 90.0 * std::max(0.0, n.dot(sun)) / std::sin(e);
+      image.at<uint8_t>(r, c) = static_cast<uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+    }
+  return image;
+}
 
 PinholeCamera camera() { return PinholeCamera(kSize, kSize, 400.0, 400.0, kSize / 2.0, kSize / 2.0); }
 
@@ -117,6 +141,74 @@ TEST(ShadingRelief, TheSunElevationNormalisationGivesTheSameSlopeAtLowAndHighSun
       << "Sun 20 deg " << low.washboard_median << ", Sun 45 deg " << high.washboard_median;
 }
 
+/// The washboard's median on ground tilted by tilt_deg (toward the Sun when positive) under a Sun at 20 deg,
+/// with or without the Sun's azimuth, the map's elevation being the tilted plane.
+double measureTilted(double tilt_deg, bool azimuth_given) {
+  const double sun_elevation_deg = 20.0;
+  ShadingReliefConfig config;
+  config.sun_elevation_deg = sun_elevation_deg;
+  if (azimuth_given) config.sun_azimuth_deg = 90.0;  // toward +x
+  ShadingRelief relief(camera(), config);
+  for (const double y : {-1.0, 0.0, 1.0}) {
+    const Pose T = nadirAt(0.0, y, kHeight);
+    EXPECT_TRUE(relief.addKeyframe(T, renderTilted(camera(), T, sun_elevation_deg, tilt_deg), 0.0));
+  }
+  const GridGeometry g = GridGeometry::centeredOnOrigin(14.0, 0.5);
+  cv::Mat elevation = g.newLayer();
+  for (int r = 0; r < g.rows; ++r)
+    for (int c = 0; c < g.cols; ++c)
+      elevation.at<float>(r, c) = static_cast<float>(-std::tan(tilt_deg * M_PI / 180.0) * g.x_m(c));
+  const cv::Mat sun = relief.localSunElevationDeg(g, elevation, 2.0);
+  EXPECT_NEAR(sun.at<float>(g.rows / 2, g.cols / 2),
+              azimuth_given ? sun_elevation_deg + tilt_deg : sun_elevation_deg, 1e-3);
+  const Reading r = read(g, relief.slopeRms(g, elevation, 4.0));
+  EXPECT_GT(r.washboard, 300);
+  EXPECT_LT(r.level_max, 0.5);
+  return r.washboard_median;
+}
+
+TEST(ShadingRelief, OnTiltedGroundTheSunOverTheMapsGroundReadsTheSameSlopeAsOnLevelGround) {
+  const double expected = 0.728 * rmsSlopeDeg();  // as on level ground (the first test)
+  for (const double tilt_deg : {10.0, -8.0}) {
+    const double with = measureTilted(tilt_deg, true), without = measureTilted(tilt_deg, false);
+    // Without the azimuth the relative brightness is read against the Sun over level ground (20 deg): too
+    // low on ground turned toward it (tan 20 / tan 30 = 0.63), too high away from it (tan 20 / tan 12 =
+    // 1.71).
+    const double level_ratio = std::tan(20.0 * M_PI / 180.0) / std::tan((20.0 + tilt_deg) * M_PI / 180.0);
+    std::printf(
+        "ground tilted %+.0f deg toward the Sun (20 deg): washboard read %.2f deg with the azimuth, %.2f "
+        "without (expected %.2f, without x %.2f)\n",
+        tilt_deg, with, without, expected, level_ratio);
+    EXPECT_NEAR(with, expected, 0.15 * expected) << "tilt " << tilt_deg;
+    EXPECT_NEAR(without / with, level_ratio, 0.1 * level_ratio) << "tilt " << tilt_deg;
+  }
+}
+
+TEST(ShadingRelief, TheSunOverTheGroundAtTheEdgeOfTheKnownGroundAndAroundIsolatedCells) {
+  ShadingReliefConfig config;
+  config.sun_elevation_deg = 15.0;
+  config.sun_azimuth_deg = 0.0;  // toward +y
+  const ShadingRelief relief(camera(), config);
+  const GridGeometry g = GridGeometry::centeredOnOrigin(5.0, 0.5);  // 21 x 21 cells
+  // Ground rising toward +y at 10 deg (facing -y: turned away from the Sun), known only for rows 5..15.
+  cv::Mat elevation = g.newLayer();
+  for (int r = 5; r <= 15; ++r)
+    for (int c = 0; c < g.cols; ++c)
+      elevation.at<float>(r, c) = static_cast<float>(std::tan(10.0 * M_PI / 180.0) * g.y_m(r));
+  const cv::Mat sun = relief.localSunElevationDeg(g, elevation, 2.0);  // +-4 cells
+  // One-sided at rows 5, 6, 14 and 15.
+  for (const int r : {5, 6, 10, 14, 15})
+    for (const int c : {0, 3, 10, 20}) EXPECT_NEAR(sun.at<float>(r, c), 5.0, 1e-3) << r << " " << c;
+  EXPECT_FALSE(std::isfinite(sun.at<float>(4, 10)));  // unknown elevation: no value
+  // An isolated known cell: no gradient, level ground.
+  cv::Mat lone = g.newLayer();
+  lone.at<float>(10, 10) = 3.0f;
+  EXPECT_NEAR(relief.localSunElevationDeg(g, lone, 2.0).at<float>(10, 10), 15.0, 1e-4);
+  // Turned away by more than the Sun: below the horizon, where slopeRms holds min_sun_elevation_deg.
+  cv::Mat steep = elevation * (std::tan(20.0 * M_PI / 180.0) / std::tan(10.0 * M_PI / 180.0));
+  EXPECT_NEAR(relief.localSunElevationDeg(g, steep, 2.0).at<float>(10, 10), -5.0, 1e-3);
+}
+
 TEST(ShadingRelief, TheWashboardIsAHazardOnlyWithTheShadingLayer) {
   cv::Mat shading;
   (void)measure(30.0, &shading);
@@ -178,6 +270,11 @@ TEST(ShadingRelief, RejectsBadConfigAndImages) {
   EXPECT_THROW(ShadingRelief(camera(), bad), std::invalid_argument);
   bad = ShadingReliefConfig();
   bad.sun_elevation_deg = 95.0;
+  EXPECT_THROW(ShadingRelief(camera(), bad), std::invalid_argument);
+  bad = ShadingReliefConfig();
+  bad.sun_azimuth_deg = 361.0;
+  EXPECT_THROW(ShadingRelief(camera(), bad), std::invalid_argument);
+  bad.sun_azimuth_deg = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(ShadingRelief(camera(), bad), std::invalid_argument);
   ShadingReliefConfig config;
   config.sun_elevation_deg = 30.0;
