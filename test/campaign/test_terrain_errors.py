@@ -161,6 +161,41 @@ class TerrainErrors(unittest.TestCase):
         self.assertGreater(counts[0.0][1], 100, done.stdout)
         self.assertGreater(counts[0.0][0], counts[2.0][0], done.stdout)
 
+    def test_shading_calibration_reads_the_band_relief_of_a_known_surface(self):
+        """A sinusoid of 8 m wavelength (inside the 0.5-2 m band's transfer): its RMS slope through the band is
+        known in closed form; a map reading it exactly has ratio 1, one reading 0.6 of it has 0.6."""
+        from PIL import Image
+        out = os.path.join(env_or_exit("TERRAIN_ERRORS_TEST_OUTPUT"), "calibration")
+        shutil.rmtree(out, ignore_errors=True)
+        cell, n, wavelength, amplitude = 0.5, 161, 8.0, 0.3
+        x = (np.arange(n) - n // 2) * cell
+        elevation = np.tile(amplitude * np.sin(2 * np.pi * x / wavelength), (n, 1))
+        # RMS slope of a sinusoid: amplitude * k / sqrt(2); the band's transfer at the wavelength: the difference
+        # of the two Gaussians' responses; central differences on 0.5 m cells: sin(k h) / (k h).
+        k = 2 * np.pi / wavelength
+        transfer = np.exp(-0.5 * (k * 0.5) ** 2) - np.exp(-0.5 * (k * 2.0) ** 2)
+        expected_deg = np.degrees(amplitude * k / np.sqrt(2) * transfer * np.sin(k * cell) / (k * cell))
+        for run, sun, factor in (("run_000", 10.0, 1.0), ("run_001", 30.0, 0.6)):
+            os.makedirs(os.path.join(out, "runs", run, "dataset"))
+            os.makedirs(os.path.join(out, "runs", run, "terrain"))
+            Image.fromarray(elevation.astype(np.float32), mode="F").save(
+                os.path.join(out, "runs", run, "dataset", "groundtruth_terrain_elevation_m.tiff"))
+            reading = np.full((n, n), factor * expected_deg, dtype=np.float32)
+            reading[:, : n // 3] = np.nan  # part of the map not read
+            Image.fromarray(reading, mode="F").save(
+                os.path.join(out, "runs", run, "terrain", "terrain_shading_slope_deg.tiff"))
+            with open(os.path.join(out, "runs", run, "dataset", "sequence.yaml"), "w") as f:
+                f.write("sun:\n  elevation_deg: %g\n  azimuth_deg: 100.0\n" % sun)
+        done = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "shading_calibration.py"), out],
+                              capture_output=True, text=True, timeout=300)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        ratios = {float(sun): float(r) for sun, r in re.findall(r"run_00\d \(([0-9.]+)\): \d+ cells, [0-9.]+ / "
+                                                                r"[0-9.]+, ratio ([0-9.]+)", done.stdout)}
+        self.assertAlmostEqual(ratios.get(10.0, 0.0), 1.0, delta=0.05, msg=done.stdout)
+        self.assertAlmostEqual(ratios.get(30.0, 0.0), 0.6, delta=0.03, msg=done.stdout)
+        self.assertIn("Sun < 15 deg: 1 maps, ratio median 1.0", done.stdout)
+        self.assertIn("Sun >= 15 deg: 1 maps, ratio median 0.6", done.stdout)
+
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -30,10 +30,11 @@
 /// under a Sun t higher (less), away from it as under one t lower (more). With the Sun's azimuth given
 /// (sun_azimuth_deg, also from the ephemeris), each cell's value is normalised by the tangent of the Sun's
 /// elevation over the map's own ground there (its elevation's gradient over the footprint's radius), held
-/// at min_sun_elevation_deg where it is lower (ground turned away from the Sun). On the 39 maps of six
+/// at min_sun_elevation_deg where it is lower (ground turned away from the Sun). On the 40 maps of six
 /// campaigns with a Sun of 5-15 deg, this brought the ratio of the reading to the true relief in the band
-/// (per map, median over its cells) from 0.42-0.96 (interquartile over the maps) to 0.61-0.69; on the 60
-/// with a higher Sun from 0.71-0.91 to 0.68-0.82 (docs/terrain/README.md, session 25). Without the azimuth
+/// (per map, of the medians over its cells; scripts/shading_calibration.py) from 0.42-0.99 (interquartile
+/// over the maps) to 0.60-0.69; on the 60 with a higher Sun from 0.71-0.91 to 0.67-0.83
+/// (docs/terrain/README.md, session 25). Without the azimuth
 /// the ground is taken as level. Frames: the world of the poses (gravity-aligned, z up, metres), as the
 /// shadow map.
 
