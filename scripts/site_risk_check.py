@@ -17,7 +17,7 @@ the clearance. Many more cells than the few sites a search returns, so a denser 
 sites; run it on maps the margin was not chosen on.
 
   /usr/bin/python3 scripts/site_risk_check.py CAMPAIGN_DIR [CAMPAIGN_DIR ...] [--margins 0,1,2] [--k 2.5]
-        [--weight 0.5] [--max-slope-deg 10] [--max-roughness-m 0.3] [--max-shading-slope-deg 3]
+        [--weight 0.5] [--max-slope-deg 10] [--max-roughness-m 0.3] [--max-shading-slope-deg 2.7]
         [--max-shadow-fraction 0.5] [--clearance-m 3] [--footprint-m 4] [--low-sun-deg 15]
 
 CAMPAIGN_DIR: a scripts/hazard_campaign.py --runs output folder (runs/run_*/dataset with the true terrain and

@@ -11,7 +11,7 @@ sampled, over the 4 m footprint) above the limit within the clearance. Many more
 returns, so a denser statistic than the campaign's chosen sites; run it on maps the weight was not chosen on.
 
   /usr/bin/python3 scripts/slope_weight_check.py CAMPAIGN_DIR [CAMPAIGN_DIR ...] [--weights 0,0.5,1,2] [--k 2.5]
-        [--max-slope-deg 10] [--max-shading-slope-deg 3] [--max-shadow-fraction 0.5] [--clearance-m 3]
+        [--max-slope-deg 10] [--max-shading-slope-deg 2.7] [--max-shadow-fraction 0.5] [--clearance-m 3]
 
 CAMPAIGN_DIR: a scripts/hazard_campaign.py --runs output folder (runs/run_*/dataset and runs/run_*/terrain). Needs
 numpy and scipy.
@@ -51,7 +51,7 @@ def add_qualification_args(ap):
     site_risk_check.py."""
     ap.add_argument("--k", type=float, default=2.5)
     ap.add_argument("--max-slope-deg", type=float, default=10.0)
-    ap.add_argument("--max-shading-slope-deg", type=float, default=3.0)
+    ap.add_argument("--max-shading-slope-deg", type=float, default=2.7)
     ap.add_argument("--max-shadow-fraction", type=float, default=0.5)
     ap.add_argument("--clearance-m", type=float, default=3.0)
     ap.add_argument("--footprint-m", type=float, default=4.0)

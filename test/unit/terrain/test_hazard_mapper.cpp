@@ -254,7 +254,7 @@ TEST(HazardMapper, NoSiteOnReliefTheShadingShowsUnderAHighSun) {
   // The plain again, target (-15, 0); a nadir keyframe from 40 m under a Sun 30 deg high sees, on a 6 m
   // square at the target, a washboard (4 m wavelength, slopes up to 8.5 deg, 9 cm high: no shadow, and
   // under the 2 m plane fit) shaded by the Lambert law. With the Sun's elevation given its cells are
-  // hazards (shading relief about 4.4 deg RMS against 3) and the site keeps clear; without it (0: not
+  // hazards (shading relief about 4.4 deg RMS against 2.7) and the site keeps clear; without it (0: not
   // given) the site is the target itself.
   HazardMapperConfig config = smallArea();
   config.sites.target_x_m = -15.0;

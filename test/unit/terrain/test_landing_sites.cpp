@@ -192,7 +192,7 @@ TEST(LandingSites, CellsSeenInShadowAreNotSafe) {
 
 TEST(LandingSites, TheShadingReliefRaisesTheSlopeByItsWeight) {
   // Two equal discs at 7 deg (a plane fit that flattened a steeper wall, say); over the nearer one the
-  // shading reads 2 deg of relief under the plane (below max_shading_slope_deg, 3), over the farther one 0.5
+  // shading reads 2 deg of relief under the plane (below max_shading_slope_deg, 2.7), over the farther one 0.5
   // deg. The target at x = 4 m: the nearer disc's edge is 9 m from it, the farther one's 11 m. Weight 0:
   // the shading is only a threshold, both discs qualify, the nearer first (slope margin 3 deg, 0.3 of the
   // limit, the tightest). Weight 1: the nearer disc's slope is 9 deg (margin 1), the farther one's 7.5
@@ -259,7 +259,7 @@ TEST(LandingSites, TheShadingReliefRaisesTheSlopeByItsWeight) {
 
 TEST(LandingSites, NoFootprintReachesReliefTheShadingShows) {
   // A plain (8 deg, 0.05 m: safe, the slope the tightest margin) whose shading reads 0.5 deg of relief
-  // everywhere but at one cell 4 m east of the target, 4 deg (above max_shading_slope_deg, 3): a rock or a
+  // everywhere but at one cell 4 m east of the target, 4 deg (above max_shading_slope_deg, 2.7): a rock or a
   // pit the plane fit smooths away, whose RMS over the footprints of the cells around it is diluted below
   // the limit. With shading_margin_m 0 only that cell is a hazard, so the target itself (4 m from it,
   // clearance 3 m) is the site, although its footprint (2 m) plus the dispersion (3 m) reaches the relief.
