@@ -8,8 +8,9 @@ of the landing area (groundtruth_terrain_elevation_m): the difference of the ele
 gradient by central differences, its squared magnitude averaged over the footprint disc, the root in degrees. Per
 map: the ratio of the medians (reading / truth) over the cells where both are known, and their correlation; per Sun
 bin: the median and interquartile range of the ratios over the maps. A reading whose normalisation is right has the
-same ratio at every Sun and on every map (the band and the views make it less than 1); a spread between maps is an
-error the hazard threshold cannot absorb.
+same ratio at every Sun and on every map (below 1: the truth goes through the same band, so not the band; the
+images' blur and the photometry are candidates); a spread between maps is an error the hazard threshold cannot
+absorb.
 
   /usr/bin/python3 scripts/shading_calibration.py CAMPAIGN_DIR [CAMPAIGN_DIR ...] [--band-min-m 0.5]
         [--band-max-m 2] [--footprint-m 4] [--cell-m 0.5] [--low-sun-deg 15] [--min-cells 500]

@@ -34,9 +34,8 @@
 /// campaigns with a Sun of 5-15 deg, this brought the ratio of the reading to the true relief in the band
 /// (per map, of the medians over its cells; scripts/shading_calibration.py) from 0.42-0.99 (interquartile
 /// over the maps) to 0.60-0.69; on the 60 with a higher Sun from 0.71-0.91 to 0.67-0.83
-/// (docs/terrain/README.md, session 25). Without the azimuth
-/// the ground is taken as level. Frames: the world of the poses (gravity-aligned, z up, metres), as the
-/// shadow map.
+/// (docs/terrain/README.md, session 25). Without the azimuth the ground is taken as level. Frames: the world
+/// of the poses (gravity-aligned, z up, metres), as the shadow map.
 
 #include <deque>
 

@@ -79,10 +79,9 @@ struct Options {
   bool realtime = false;    ///< feed the frames at the dataset's own rate instead of back to back
 };
 
-/// The Sun's elevation (deg) in a rendered dataset's sequence.yaml (`sun: elevation_deg`), the ephemeris a
-/// mission would have for its landing; 0 when absent or not readable (real data).
-/// sun/<key> of the dataset's sequence.yaml (the ephemeris it was rendered with), `missing` when absent or
-/// malformed; the range is the shading config's to check.
+/// sun/<key> (deg) of a rendered dataset's sequence.yaml (`elevation_deg`, `azimuth_deg`: the ephemeris a
+/// mission would have for its landing), `missing` when absent or not readable (real data); the range is
+/// the shading config's to check.
 double datasetSunDeg(const std::string& sequence_yaml, const char* key, double missing) {
   try {
     const YAML::Node root = YAML::Load(sequence_yaml);
