@@ -64,6 +64,7 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
        {{"enabled", &c->shading.enabled},
         {"sun_elevation_deg", &c->shading.sun_elevation_deg},
         {"sun_azimuth_deg", &c->shading.sun_azimuth_deg},
+        {"normalise_turned_away", &c->shading.normalise_turned_away},
         {"min_sun_elevation_deg", &c->shading.min_sun_elevation_deg},
         {"band_min_m", &c->shading.band_min_m},
         {"band_max_m", &c->shading.band_max_m},
@@ -345,6 +346,7 @@ HazardProducts HazardMapper::products() const {
     out.terrain.grids.parameters["shading_slope_weight"] = config_.thresholds.shading_slope_weight;
     out.terrain.grids.parameters["sun_elevation_deg"] = config_.shading.sun_elevation_deg;
     out.terrain.grids.parameters["sun_azimuth_deg"] = config_.shading.sun_azimuth_deg;
+    out.terrain.grids.parameters["shading_normalise_turned_away"] = config_.shading.normalise_turned_away;
   }
   const GridSet& g = out.terrain.grids;
   const auto shadow = g.layers.find("shadow_fraction");

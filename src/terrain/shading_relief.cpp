@@ -138,7 +138,9 @@ cv::Mat ShadingRelief::slopeRms(const GridGeometry& geometry, const cv::Mat& ele
         ++n;
       }
       if (2 * n < static_cast<int>(disc.size())) continue;
-      const double sun = std::max<double>(sun_deg.at<float>(row, col), config_.min_sun_elevation_deg);
+      double sun = sun_deg.at<float>(row, col);
+      if (!config_.normalise_turned_away) sun = std::max(sun, config_.sun_elevation_deg);
+      sun = std::max(sun, config_.min_sun_elevation_deg);
       out[col] = static_cast<float>(std::sqrt(sum / n) * std::tan(sun * M_PI / 180.0) * 180.0 / M_PI);
       ++s.cells_measured;
       if (out[col] > above_deg) ++s.cells_above;

@@ -58,6 +58,12 @@ struct ShadingReliefConfig {
   /// cos e cos a, sin e). Negative = not given: the ground under each cell is taken as level. Else in
   /// [0, 360].
   double sun_azimuth_deg = -1.0;
+  /// With the azimuth given: where the map's ground is turned away from the Sun (the Sun over it lower than
+  /// over level ground), normalise by that lower elevation too (true), or by the Sun over level ground there
+  /// (false). False takes, per cell, the larger of the level-ground and the map's-ground readings: on ground
+  /// turned toward the Sun the normalisation raises the reading, and away from it the level-ground reading
+  /// is kept (session 26, docs/terrain/README.md: measured against a held-out campaign).
+  bool normalise_turned_away = true;
   /// [deg] Below this Sun the shading relief is not computed: facets of the slopes it measures turn into
   /// shadow (the linear law above needs the Sun well above them) and the shadow map alone marks the relief.
   /// Where the Sun over the map's ground is lower than this (ground turned away from it), a cell's value is

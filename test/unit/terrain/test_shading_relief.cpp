@@ -143,11 +143,12 @@ TEST(ShadingRelief, TheSunElevationNormalisationGivesTheSameSlopeAtLowAndHighSun
 
 /// The washboard's median on ground tilted by tilt_deg (toward the Sun when positive) under a Sun at 20 deg,
 /// with or without the Sun's azimuth, the map's elevation being the tilted plane.
-double measureTilted(double tilt_deg, bool azimuth_given) {
+double measureTilted(double tilt_deg, bool azimuth_given, bool normalise_turned_away = true) {
   const double sun_elevation_deg = 20.0;
   ShadingReliefConfig config;
   config.sun_elevation_deg = sun_elevation_deg;
   if (azimuth_given) config.sun_azimuth_deg = 90.0;  // toward +x
+  config.normalise_turned_away = normalise_turned_away;
   ShadingRelief relief(camera(), config);
   for (const double y : {-1.0, 0.0, 1.0}) {
     const Pose T = nadirAt(0.0, y, kHeight);
@@ -181,6 +182,20 @@ TEST(ShadingRelief, OnTiltedGroundTheSunOverTheMapsGroundReadsTheSameSlopeAsOnLe
         tilt_deg, with, without, expected, level_ratio);
     EXPECT_NEAR(with, expected, 0.15 * expected) << "tilt " << tilt_deg;
     EXPECT_NEAR(without / with, level_ratio, 0.1 * level_ratio) << "tilt " << tilt_deg;
+  }
+}
+
+TEST(ShadingRelief, WithoutNormalisingGroundTurnedAwayEachCellReadsTheLargerOfTheTwoReadings) {
+  // Toward the Sun the map's ground raises the reading (as with normalise_turned_away); away from it the
+  // level-ground reading, the larger one there, is kept.
+  for (const double tilt_deg : {10.0, -8.0}) {
+    const double larger = measureTilted(tilt_deg, true, false);
+    const double local = measureTilted(tilt_deg, true), level = measureTilted(tilt_deg, false);
+    std::printf("ground tilted %+.0f deg toward the Sun (20 deg): larger of the two %.2f deg (map's ground %.2f, "
+                "level %.2f)\n",
+                tilt_deg, larger, local, level);
+    EXPECT_NEAR(larger, std::max(local, level), 1e-4) << "tilt " << tilt_deg;
+    EXPECT_GT(std::abs(local - level), 0.2 * std::max(local, level)) << "tilt " << tilt_deg;
   }
 }
 
