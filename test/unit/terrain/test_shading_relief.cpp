@@ -191,9 +191,10 @@ TEST(ShadingRelief, WithoutNormalisingGroundTurnedAwayEachCellReadsTheLargerOfTh
   for (const double tilt_deg : {10.0, -8.0}) {
     const double larger = measureTilted(tilt_deg, true, false);
     const double local = measureTilted(tilt_deg, true), level = measureTilted(tilt_deg, false);
-    std::printf("ground tilted %+.0f deg toward the Sun (20 deg): larger of the two %.2f deg (map's ground %.2f, "
-                "level %.2f)\n",
-                tilt_deg, larger, local, level);
+    std::printf(
+        "ground tilted %+.0f deg toward the Sun (20 deg): larger of the two %.2f deg (map's ground %.2f, "
+        "level %.2f)\n",
+        tilt_deg, larger, local, level);
     EXPECT_NEAR(larger, std::max(local, level), 1e-4) << "tilt " << tilt_deg;
     EXPECT_GT(std::abs(local - level), 0.2 * std::max(local, level)) << "tilt " << tilt_deg;
   }
