@@ -12,8 +12,16 @@ same ratio at every Sun and on every map (below 1: the truth goes through the sa
 images' blur and the photometry are candidates); a spread between maps is an error the hazard threshold cannot
 absorb.
 
+Where the Sun's azimuth is in sequence.yaml, it also prints, per map and per Sun bin, the share of the read cells
+whose ground (the map's elevation: its central differences over the footprint's radius, as
+ShadingRelief::localSunElevationDeg) is turned away from the Sun, i.e. sees it lower than level ground does, for the
+truly hazardous cells (true slope above --max-slope-deg or roughness above --max-roughness-m) and for the safe ones.
+There the normalisation lowers the reading, so a larger share on hazards than on safe ground means the
+normalisation takes relief away where it matters (docs/terrain/README.md, Next item 8).
+
   /usr/bin/python3 scripts/shading_calibration.py CAMPAIGN_DIR [CAMPAIGN_DIR ...] [--band-min-m 0.5]
         [--band-max-m 2] [--footprint-m 4] [--cell-m 0.5] [--low-sun-deg 15] [--min-cells 500]
+        [--max-slope-deg 10] [--max-roughness-m 0.3]
 
 CAMPAIGN_DIR: a scripts/hazard_campaign.py --runs output folder (runs/run_*/dataset with the true terrain and
 sequence.yaml, runs/run_*/terrain with the map). Needs numpy, scipy and yaml.
@@ -27,6 +35,7 @@ import numpy as np
 from scipy import ndimage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import yaml  # noqa: E402
 from site_risk_check import sun_elevation_deg  # noqa: E402
 from slope_weight_check import disc, layer  # noqa: E402
 
@@ -43,6 +52,40 @@ def true_band_slope_deg(elevation_m, cell_m, band_min_m, band_max_m, footprint_m
     return np.where(known, np.degrees(np.sqrt(mean_square)), np.nan)
 
 
+def sun_azimuth_deg(dataset):
+    try:
+        with open(os.path.join(dataset, "sequence.yaml")) as f:
+            return float(yaml.safe_load(f)["sun"]["azimuth_deg"])
+    except (OSError, KeyError, TypeError, ValueError):
+        return None
+
+
+def map_ground_sun_deg(elevation_m, cell_m, sun_elevation, sun_azimuth, radius_m):
+    """The Sun's elevation (deg) over the ground of each cell: the plane whose gradient is the elevation's central
+    difference over +-radius_m in x (columns) and y (rows), one-sided where one end is unknown, 0 where both are;
+    NaN where the elevation is unknown. The azimuth is measured from +y toward +x."""
+    k = max(1, int(round(radius_m / cell_m)))
+    step = k * cell_m
+    z = np.pad(elevation_m.astype(float), k, constant_values=np.nan)
+    rows, cols = elevation_m.shape
+
+    def at(dr, dc):
+        return z[k + dr:k + dr + rows, k + dc:k + dc + cols]
+
+    def gradient(minus, centre, plus):
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isfinite(minus) & np.isfinite(plus), (plus - minus) / (2 * step),
+                            np.where(np.isfinite(plus), (plus - centre) / step,
+                                     np.where(np.isfinite(minus), (centre - minus) / step, 0.0)))
+
+    centre = at(0, 0)
+    gx, gy = gradient(at(0, -k), centre, at(0, k)), gradient(at(-k, 0), centre, at(k, 0))
+    e, a = np.radians(sun_elevation), np.radians(sun_azimuth)
+    sun = (np.cos(e) * np.sin(a), np.cos(e) * np.cos(a), np.sin(e))
+    sine = (-gx * sun[0] - gy * sun[1] + sun[2]) / np.sqrt(gx * gx + gy * gy + 1.0)
+    return np.where(np.isfinite(centre), np.degrees(np.arcsin(np.clip(sine, -1.0, 1.0))), np.nan)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("campaigns", nargs="+")
@@ -52,9 +95,12 @@ def main():
     ap.add_argument("--cell-m", type=float, default=0.5, help="the landing area's cell size")
     ap.add_argument("--low-sun-deg", type=float, default=15.0)
     ap.add_argument("--min-cells", type=int, default=500, help="maps with fewer cells read are left out")
+    ap.add_argument("--max-slope-deg", type=float, default=10.0, help="a true hazard's slope (thresholds)")
+    ap.add_argument("--max-roughness-m", type=float, default=0.3, help="a true hazard's roughness (thresholds)")
     a = ap.parse_args()
     runs = sorted(r for c in a.campaigns for r in glob.glob(os.path.join(c, "runs", "run_*")))
     rows = []
+    away = []  # (Sun elevation, hazard cells, of them turned away, safe cells, of them turned away)
     print("run (Sun deg): cells, median reading / median truth (deg), ratio, correlation")
     for run in runs:
         est, gt = os.path.join(run, "terrain"), os.path.join(run, "dataset")
@@ -73,6 +119,22 @@ def main():
         rows.append((el, ratio))
         print("%s (%.1f): %d cells, %.2f / %.2f, ratio %.2f, correlation %.2f"
               % (os.path.relpath(run), el, ok.sum(), np.median(r), np.median(t), ratio, corr))
+        az, map_z = sun_azimuth_deg(gt), layer(est, "terrain", "elevation_m")
+        true_slope, true_rough = layer(gt, "groundtruth_terrain", "slope_deg"), layer(gt, "groundtruth_terrain",
+                                                                                     "roughness_m")
+        if az is None or map_z is None or true_slope is None or true_rough is None:
+            continue
+        ground = map_ground_sun_deg(map_z, a.cell_m, el, az, 0.5 * a.footprint_m)
+        read = np.isfinite(reading) & np.isfinite(ground) & np.isfinite(true_slope) & np.isfinite(true_rough)
+        with np.errstate(invalid="ignore"):
+            hazard = (true_slope > a.max_slope_deg) | (true_rough > a.max_roughness_m)
+            turned_away = ground < el - 1e-6  # deg: level ground is not turned away
+        counts = (int((read & hazard).sum()), int((read & hazard & turned_away).sum()),
+                  int((read & ~hazard).sum()), int((read & ~hazard & turned_away).sum()))
+        away.append((el,) + counts)
+        print("    ground turned away from the Sun: %s of %d hazardous cells, %s of %d safe"
+              % ("%.2f" % (counts[1] / counts[0]) if counts[0] else "-", counts[0],
+                 "%.2f" % (counts[3] / counts[2]) if counts[2] else "-", counts[2]))
     print("all %d maps:" % len(rows))
     for name, keep in (("Sun < %g deg" % a.low_sun_deg, lambda e: e < a.low_sun_deg),
                        ("Sun >= %g deg" % a.low_sun_deg, lambda e: e >= a.low_sun_deg)):
@@ -82,6 +144,10 @@ def main():
             print("  %s: %d maps, ratio median %.2f, interquartile %.2f-%.2f" % (name, len(ratios), med, q1, q3))
         else:
             print("  %s: no map" % name)
+        sums = np.sum([c[1:] for c in away if keep(c[0])], axis=0) if any(keep(c[0]) for c in away) else None
+        if sums is not None and sums[0] and sums[2]:
+            print("    ground turned away from the Sun: %.2f of %d hazardous cells, %.2f of %d safe"
+                  % (sums[1] / sums[0], sums[0], sums[3] / sums[2], sums[2]))
     return 0 if rows else 1
 
 

@@ -186,6 +186,15 @@ class TerrainErrors(unittest.TestCase):
                 os.path.join(out, "runs", run, "terrain", "terrain_shading_slope_deg.tiff"))
             with open(os.path.join(out, "runs", run, "dataset", "sequence.yaml"), "w") as f:
                 f.write("sun:\n  elevation_deg: %g\n  azimuth_deg: 100.0\n" % sun)
+            # The map's ground: a valley along y, rising 5 deg on both sides. With the Sun toward +x (azimuth
+            # 100), the side x > 0 is turned away from it. The true hazards (slope 12 deg) are all there, x > 5 m.
+            map_z = (np.abs(np.tile(x, (n, 1))) * np.tan(np.radians(5.0))).astype(np.float32)
+            Image.fromarray(map_z, mode="F").save(os.path.join(out, "runs", run, "terrain", "terrain_elevation_m.tiff"))
+            true_slope = np.where(np.tile(x, (n, 1)) > 5.0, 12.0, 2.0).astype(np.float32)
+            Image.fromarray(true_slope, mode="F").save(
+                os.path.join(out, "runs", run, "dataset", "groundtruth_terrain_slope_deg.tiff"))
+            Image.fromarray(np.full((n, n), 0.05, dtype=np.float32), mode="F").save(
+                os.path.join(out, "runs", run, "dataset", "groundtruth_terrain_roughness_m.tiff"))
         done = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "shading_calibration.py"), out],
                               capture_output=True, text=True, timeout=300)
         self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
@@ -195,6 +204,20 @@ class TerrainErrors(unittest.TestCase):
         self.assertAlmostEqual(ratios.get(30.0, 0.0), 0.6, delta=0.03, msg=done.stdout)
         self.assertIn("Sun < 15 deg: 1 maps, ratio median 1.0", done.stdout)
         self.assertIn("Sun >= 15 deg: 1 maps, ratio median 0.6", done.stdout)
+        # Read cells: x > -13.25 m (the first third unread). Hazards: x > 5 m, all turned away. Safe: turned away
+        # for 0 < x <= 5 m (the central differences over +-2 m still rise there; at x = 0 the ground is level).
+        away = re.findall(r"ground turned away from the Sun: ([0-9.]+) of (\d+) hazardous cells, ([0-9.]+) of (\d+) "
+                          r"safe", done.stdout)
+        self.assertEqual(len(away), 4, done.stdout)  # two maps, two Sun bins
+        cols_read = n - n // 3
+        cols_hazard = int(np.sum(x > 5.0))
+        cols_safe_away = int(np.sum((x > 0.0) & (x <= 5.0)))
+        for share_hazard, hazards, share_safe, safe in away:
+            self.assertEqual(int(hazards), n * cols_hazard, done.stdout)
+            self.assertEqual(int(safe), n * (cols_read - cols_hazard), done.stdout)
+            self.assertAlmostEqual(float(share_hazard), 1.0, delta=0.005, msg=done.stdout)
+            self.assertAlmostEqual(float(share_safe), cols_safe_away / (cols_read - cols_hazard), delta=0.006,
+                                   msg=done.stdout)
 
 
 if __name__ == "__main__":
