@@ -64,3 +64,7 @@ if(VO_TEST_DATASET)
   # the layer
   add_descent_tool_test(terrain_errors_tool test_terrain_errors.py TERRAIN_ERRORS_TEST_OUTPUT 300)
 endif()
+# hazard_campaign_renders_from: scripts/hazard_campaign.py, a one-run campaign at 256 px (the last 5 s of an
+# approach) and the same draw mapped again with --renders-from: the run folder links the dataset it used, the
+# trajectory repeats exactly, a second time works with the link there, another draw's renders are refused
+add_descent_tool_test(hazard_campaign_renders_from test_hazard_campaign.py HAZARD_CAMPAIGN_TEST_OUTPUT 300)

@@ -30,7 +30,7 @@ table and a summary; --json writes every trial; with --runs, OUT/summary.md and 
                              [--renders-from CAMPAIGN] [common]
   --renders-from: the navigation and the hazard map run again on the renders of an earlier campaign of the same
   draws (one run with --keep-images), e.g. to measure a change of the code or of --hazard-config on the same images;
-  each run's draw must equal the earlier one's.
+  each run's draw must equal the earlier one's. Each run's folder gets a link `dataset` to the render it used.
   common: [--confidence-k K] [--targets "x,y;x,y;..."] [--hazard-config FILE] [--max-shadow-fraction F]
           [--max-shading-slope-deg S] [--shading-slope-weight W] [--shading-margin-m M]
           [--reuse] [--json FILE] [--write-docs DIR]
@@ -182,6 +182,11 @@ def execute_run(p, a, targets):
                 earlier = None
             if earlier != json.loads(json.dumps(p)) or not os.path.isdir(os.path.join(dataset, "images")):
                 raise ToolFailed("%s: the run in %s is another draw or kept no images" % (p["id"], a.renders_from))
+            # The run's folder links the dataset it used, so that the analysis scripts (site_risk_check.py,
+            # shading_calibration.py, slope_weight_check.py) read this campaign folder like a rendered one.
+            link = os.path.join(work, "dataset")
+            if not os.path.lexists(link):
+                os.symlink(os.path.abspath(dataset), link)
         elif not (a.reuse and os.path.exists(os.path.join(work, "terrain", "terrain.yaml"))):
             run(render, os.path.join(work, "render.log"))
         vo_extra = ["--initial-error-m", ",".join("%g" % v for v in p["initial_position_error_m"]),
