@@ -184,7 +184,10 @@ def execute_run(p, a, targets):
                 raise ToolFailed("%s: the run in %s is another draw or kept no images" % (p["id"], a.renders_from))
             # The run's folder links the dataset it used, so that the analysis scripts (site_risk_check.py,
             # shading_calibration.py, slope_weight_check.py) read this campaign folder like a rendered one.
+            # A link left by an earlier --renders-from of another campaign is replaced; a rendered folder is kept.
             link = os.path.join(work, "dataset")
+            if os.path.islink(link) and os.path.realpath(link) != os.path.realpath(dataset):
+                os.remove(link)
             if not os.path.lexists(link):
                 os.symlink(os.path.abspath(dataset), link)
         elif not (a.reuse and os.path.exists(os.path.join(work, "terrain", "terrain.yaml"))):

@@ -35,8 +35,7 @@ import numpy as np
 from scipy import ndimage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import yaml  # noqa: E402
-from site_risk_check import sun_elevation_deg  # noqa: E402
+from site_risk_check import sun_deg  # noqa: E402
 from slope_weight_check import disc, layer  # noqa: E402
 
 
@@ -50,14 +49,6 @@ def true_band_slope_deg(elevation_m, cell_m, band_min_m, band_max_m, footprint_m
     footprint /= footprint.sum()
     mean_square = ndimage.convolve(gx * gx + gy * gy, footprint, mode="nearest")
     return np.where(known, np.degrees(np.sqrt(mean_square)), np.nan)
-
-
-def sun_azimuth_deg(dataset):
-    try:
-        with open(os.path.join(dataset, "sequence.yaml")) as f:
-            return float(yaml.safe_load(f)["sun"]["azimuth_deg"])
-    except (OSError, KeyError, TypeError, ValueError):
-        return None
 
 
 def map_ground_sun_deg(elevation_m, cell_m, sun_elevation, sun_azimuth, radius_m):
@@ -106,7 +97,7 @@ def main():
         est, gt = os.path.join(run, "terrain"), os.path.join(run, "dataset")
         reading = layer(est, "terrain", "shading_slope_deg")
         elevation = layer(gt, "groundtruth_terrain", "elevation_m")
-        el = sun_elevation_deg(gt)
+        el = sun_deg(gt)
         if reading is None or elevation is None or el is None:
             continue
         truth = true_band_slope_deg(elevation, a.cell_m, a.band_min_m, a.band_max_m, a.footprint_m)
@@ -119,7 +110,7 @@ def main():
         rows.append((el, ratio))
         print("%s (%.1f): %d cells, %.2f / %.2f, ratio %.2f, correlation %.2f"
               % (os.path.relpath(run), el, ok.sum(), np.median(r), np.median(t), ratio, corr))
-        az, map_z = sun_azimuth_deg(gt), layer(est, "terrain", "elevation_m")
+        az, map_z = sun_deg(gt, "azimuth_deg"), layer(est, "terrain", "elevation_m")
         true_slope, true_rough = layer(gt, "groundtruth_terrain", "slope_deg"), layer(gt, "groundtruth_terrain",
                                                                                      "roughness_m")
         if az is None or map_z is None or true_slope is None or true_rough is None:

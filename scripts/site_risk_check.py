@@ -36,10 +36,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from slope_weight_check import add_qualification_args, disc, disc_max, layer  # noqa: E402
 
 
-def sun_elevation_deg(dataset):
+def sun_deg(dataset, key="elevation_deg"):
+    """sun/<key> (deg) of a rendered dataset's sequence.yaml (elevation_deg, azimuth_deg); None when absent."""
     try:
         with open(os.path.join(dataset, "sequence.yaml")) as f:
-            return float(yaml.safe_load(f)["sun"]["elevation_deg"])
+            return float(yaml.safe_load(f)["sun"][key])
     except (OSError, KeyError, TypeError, ValueError):
         return None
 
@@ -86,7 +87,7 @@ def main():
         clearance = disc(a.clearance_m / a.cell_m)
         hazard_near = ndimage.binary_dilation((true_slope > a.max_slope_deg) | (true_rough > a.max_roughness_m),
                                               structure=clearance)
-        el = sun_elevation_deg(gt)
+        el = sun_deg(gt)
         b = bins[2] if el is None else bins[0] if el < a.low_sun_deg else bins[1]
         row = "%s (%s)" % (os.path.relpath(run), "n/a" if el is None else "%.1f" % el)
         for m in margins:

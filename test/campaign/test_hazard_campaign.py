@@ -2,8 +2,8 @@
 5 s of an approach, with --keep-images, then the same draw mapped again from its renders. The second campaign's run
 folder must link the first one's dataset (so that site_risk_check.py and shading_calibration.py read it like a
 rendered campaign), its navigation must repeat the first one's trajectory exactly (the same images and binaries),
-a second --renders-from into the same folder must work with the link already there, and renders of another draw
-(another seed) must be refused."""
+a second --renders-from into the same folder must work with the link already there (and replace a link to
+another campaign's render), and renders of another draw (another seed) must be refused."""
 import os
 import shutil
 import subprocess
@@ -43,6 +43,12 @@ class HazardCampaignRendersFrom(unittest.TestCase):
             with open(os.path.join(first, "runs", "run_000", "trajectory.txt")) as a, \
                     open(os.path.join(second, "runs", "run_000", "trajectory.txt")) as b:
                 self.assertEqual(a.read(), b.read())
+        # A link to another campaign's render (an earlier --renders-from into this folder) is replaced.
+        os.remove(link)
+        os.symlink(out, link)
+        done = self.run_tool(*DRAW, "--renders-from", first, "--out", second)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        self.assertEqual(os.path.realpath(link), os.path.realpath(rendered))
         # The analysis scripts read the re-mapped folder's true terrain through the link.
         risk = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "site_risk_check.py"), second, "--margins", "2"],
                               capture_output=True, text=True, timeout=120)
