@@ -6,7 +6,10 @@ For each rendered dataset (with its groundtruth_terrain grids): one fused naviga
 end of the sequence), then, for each target on a grid over the landing area, `terrain_eval` chooses the best site
 within reach of that target on the estimated map (findLandingSites with the map's own sigmas; confidence k and
 the rest from config/hazard.yaml unless given) and checks it against the true terrain (every true cell within the
-clearance known and safe).
+clearance known and safe). Each site is judged twice: at its world coordinates, and at touchdown: moved by the
+navigation's error at the end of the run (terrain_eval --navigation-error-from), where a lander guided by this
+navigation to the site lands, on the ground the map saw there (terrain/terrain_score.h, truthInNavigationFrame).
+The maps are scored both ways too.
 
 Two ways to get the datasets:
   --datasets DIR [DIR ...]   renders that exist (e.g. the benchmark's);
@@ -102,11 +105,16 @@ def evaluate(dataset, work, name, a, targets, vo_extra=()):
             cmd += ["--hazard-config", a.hazard_config]
         run(cmd, os.path.join(work, "vo_run.log"))
     trials, scores, k = [], None, None
+    trajectory = os.path.join(work, "trajectory.txt")
+    has_pose = os.path.exists(trajectory) and any(
+        line.strip() and not line.startswith("#") for line in open(trajectory))
     for (x, y) in targets:
         tag = "t%+04.0f%+04.0f" % (x, y)
         js = os.path.join(work, tag + ".json")
         cmd = [os.path.join(BIN, "terrain_eval"), "--gt", dataset, "--est", terrain, "--target-x-m", str(x),
                "--target-y-m", str(y), "--json", js]
+        if has_pose:
+            cmd += ["--navigation-error-from", trajectory]
         if a.confidence_k is not None:
             cmd += ["--confidence-k", str(a.confidence_k)]
         if a.max_shadow_fraction is not None:
@@ -125,20 +133,46 @@ def evaluate(dataset, work, name, a, targets, vo_extra=()):
         if scores is None:
             scores = {res: {key: result.get(res, {}).get(key) for key in MAP_KEYS}
                       for res in ("at_map_resolution", "full_resolution")}
+            nav = result.get("navigation_frame") or {}
+            for res in ("at_map_resolution", "full_resolution"):
+                scores["navigation_frame_" + res] = {key: (nav.get(res) or {}).get(key) for key in MAP_KEYS}
+            scores["navigation_error_m"] = result.get("navigation_error_m")
         trials.append({"dataset": name, "target_x_m": x, "target_y_m": y, "site": result.get("landing_site")})
     return trials, scores, k
+
+
+def at_touchdown(site):
+    """The verdict at touchdown: True (safe), False (a true hazard within the clearance), None when it cannot be
+    judged: the run has no navigation error (older results), or the moved clearance reaches beyond the true
+    terrain's grid (unknown cells, no hazard: the truth is unknown there, not unsafe)."""
+    if site.get("safe_at_touchdown") is None:
+        return None
+    if site["safe_at_touchdown"]:
+        return True
+    return False if site["cells_hazard_at_touchdown"] > 0 else None
+
+
+def touchdown_text(s):
+    if s.get("safe_at_touchdown") is None:
+        return "n/a"
+    v = at_touchdown(s)
+    if v is None:
+        return "not judged (%d cells beyond the true terrain's grid)" % s["cells_unknown_at_touchdown"]
+    return "safe" if v else "UNSAFE (%d hazard, %d unknown cells)" % (s["cells_hazard_at_touchdown"],
+                                                                      s["cells_unknown_at_touchdown"])
 
 
 def trial_row(t):
     s = t["site"]
     if s is None:
-        return "| %s | (%.0f, %.0f) | none | | | no site |" % (t["dataset"], t["target_x_m"], t["target_y_m"])
-    return "| %s | (%.0f, %.0f) | (%.1f, %.1f) | %.1f deg / %.2f m | %s deg / %s m | %s |" % (
+        return "| %s | (%.0f, %.0f) | none | | | no site | |" % (t["dataset"], t["target_x_m"], t["target_y_m"])
+    return "| %s | (%.0f, %.0f) | (%.1f, %.1f) | %.1f deg / %.2f m | %s deg / %s m | %s | %s |" % (
         t["dataset"], t["target_x_m"], t["target_y_m"], s["x_m"], s["y_m"], s["slope_deg"], s["roughness_m"],
         "%.1f" % s["true_slope_deg"] if s["true_slope_deg"] is not None else "n/a",
         "%.2f" % s["true_roughness_m"] if s["true_roughness_m"] is not None else "n/a",
         "safe" if s["truly_safe"] else "UNSAFE (%d hazard, %d unknown cells)" % (s["cells_hazard"],
-                                                                                 s["cells_unknown"]))
+                                                                                 s["cells_unknown"]),
+        touchdown_text(s))
 
 
 def plan_runs(a):
@@ -229,6 +263,13 @@ def summarise(results, a, k):
     planned = [planned_site(r["trials"]) for r in results if r["status"] == "ok"]
     planned_chosen = [t for t in planned if t is not None and t["site"] is not None]
     planned_unsafe = [t for t in planned_chosen if not t["site"]["truly_safe"]]
+    # At touchdown: only the sites whose run has a navigation error (None: older results, not counted).
+    td_edge = [t for t in chosen if t["site"].get("safe_at_touchdown") is not None and at_touchdown(t["site"]) is None]
+    td = [t for t in chosen if at_touchdown(t["site"]) is not None]
+    td_unsafe = [t for t in td if not at_touchdown(t["site"])]
+    td_planned = [t for t in planned_chosen if at_touchdown(t["site"]) is not None]
+    td_planned_unsafe = [t for t in td_planned if not at_touchdown(t["site"])]
+    td_distinct = {(t["dataset"], t["site"]["x_m"], t["site"]["y_m"]): at_touchdown(t["site"]) for t in td}
     lines = ["# Landing-site safety campaign", ""]
     lines.append("Command: `scripts/hazard_campaign.py %s`" % " ".join(sys.argv[1:]))
     lines.append("")
@@ -257,12 +298,26 @@ def summarise(results, a, k):
         len(chosen), len(chosen) - len(unsafe), len(unsafe), len(trials) - len(chosen)))
     lines.append("| distinct sites chosen: truly safe / UNSAFE | %d / %d |" % (
         sum(1 for v in distinct.values() if v), sum(1 for v in distinct.values() if not v)))
+    lines.append("| at touchdown (each site moved by its run's navigation error at the end): site for (0, 0) "
+                 "safe / UNSAFE | %d / %d |" % (len(td_planned) - len(td_planned_unsafe), len(td_planned_unsafe)))
+    lines.append("| at touchdown: all trials' sites judged / safe / UNSAFE / not judged (beyond the true terrain's "
+                 "grid) | %d / %d / %d / %d |" % (len(td), len(td) - len(td_unsafe), len(td_unsafe), len(td_edge)))
+    lines.append("| at touchdown: distinct sites safe / UNSAFE | %d / %d |" % (
+        sum(1 for v in td_distinct.values() if v), sum(1 for v in td_distinct.values() if not v)))
+    lines.append("")
+    lines.append("The verdicts above the last three rows check the true terrain at each site's world coordinates. "
+                 "The map and the lander's guidance both live in the navigation's frame: a lander flown to the "
+                 "site by this navigation touches down on the ground the map saw there, which is displaced from "
+                 "the world coordinates by the navigation's error (the handed-over state's error, which vision "
+                 "cannot remove without a map of the site, plus drift). \"At touchdown\" judges that ground, "
+                 "with the error at the end of the run (the low gate); drift after it is the clearance's job.")
     lines.append("")
     lines.append("By Sun elevation (low Sun: long shadows, which the map marks unknown; high Sun: rocks cast "
                  "almost none):")
     lines.append("")
-    lines.append("| Sun elevation | runs | site for (0, 0): safe / UNSAFE / none | all trials: chosen / UNSAFE |")
-    lines.append("|---|---|---|---|")
+    lines.append("| Sun elevation | runs | site for (0, 0): safe / UNSAFE / none | all trials: chosen / UNSAFE | "
+                 "UNSAFE at touchdown |")
+    lines.append("|---|---|---|---|---|")
     for lo, hi in ((0, 15), (15, 25), (25, 35), (35, 90)):
         rs = [r for r in results if r["status"] == "ok" and lo <= r["params"]["sun_elevation_deg"] < hi]
         pl = [planned_site(r["trials"]) for r in rs]
@@ -270,41 +325,59 @@ def summarise(results, a, k):
         pu = [t for t in pc if not t["site"]["truly_safe"]]
         tc = [t for r in rs for t in r["trials"] if t["site"] is not None]
         tu = [t for t in tc if not t["site"]["truly_safe"]]
-        lines.append("| %d-%d deg | %d | %d / %d / %d | %d / %d |" % (lo, hi, len(rs), len(pc) - len(pu), len(pu),
-                                                                   len(pl) - len(pc), len(tc), len(tu)))
+        tdu = [t for t in tc if at_touchdown(t["site"]) is False]
+        lines.append("| %d-%d deg | %d | %d / %d / %d | %d / %d | %d |" % (
+            lo, hi, len(rs), len(pc) - len(pu), len(pu), len(pl) - len(pc), len(tc), len(tu), len(tdu)))
     lines.append("")
     lines.append("Maps (one per run, the terrain model at the end of the approach):")
     lines.append("")
-    for res, title in (("at_map_resolution", "at the map's resolution"), ("full_resolution", "as sampled")):
+    for res, title in (("at_map_resolution", "at the map's resolution"), ("full_resolution", "as sampled"),
+                       ("navigation_frame_at_map_resolution", "in the navigation's frame at the map's resolution"),
+                       ("navigation_frame_full_resolution", "in the navigation's frame as sampled")):
         for key in MAP_KEYS:
-            lines.append("- %s, %s: %s" % (key, title, stats([r["scores"][res][key] for r in results
+            lines.append("- %s, %s: %s" % (key, title, stats([r["scores"].get(res, {}).get(key) for r in results
                                                                if r["scores"]])))
+    horizontal = [(e[0] ** 2 + e[1] ** 2) ** 0.5 for e in (r["scores"].get("navigation_error_m") for r in results
+                                                             if r["scores"]) if e]
+    lines.append("- navigation error at the end of the run, horizontal (m): %s" % stats(horizontal))
     lines.append("")
-    lines.append("| run | sequence | Sun el / az (deg) | placement | coverage | slope RMSE (map res.) | "
-                 "precision / recall (map res.) | site for (0, 0) | verdict |")
-    lines.append("|---|---|---|---|---|---|---|---|---|")
+    lines.append("| run | sequence | Sun el / az (deg) | placement | coverage | slope RMSE (map res.; nav. frame) | "
+                 "precision / recall (map res.) | nav. error x, y, z (m) | site for (0, 0) | verdict | "
+                 "at touchdown |")
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         p = r["params"]
         s = r["scores"]["at_map_resolution"] if r["scores"] else {}
+        sn = r["scores"].get("navigation_frame_at_map_resolution", {}) if r["scores"] else {}
+        e = r["scores"].get("navigation_error_m") if r["scores"] else None
         t = planned_site(r["trials"])
         site = t["site"] if t else None
         fmt = lambda v, f: (f % v) if v is not None else "n/a"  # noqa: E731
-        lines.append("| %s | %s | %.1f / %.1f | %d | %s | %s | %s / %s | %s | %s |" % (
+        lines.append("| %s | %s | %.1f / %.1f | %d | %s | %s; %s | %s / %s | %s | %s | %s | %s |" % (
             p["id"], p["sequence"], p["sun_elevation_deg"], p["sun_azimuth_deg"], p["placement_rank"],
             fmt(s.get("surface_coverage"), "%.3f"), fmt(s.get("slope_rmse_deg"), "%.2f"),
+            fmt(sn.get("slope_rmse_deg"), "%.2f"),
             fmt(s.get("hazard_precision"), "%.2f"), fmt(s.get("hazard_recall"), "%.2f"),
+            "%+.1f, %+.1f, %+.1f" % tuple(e) if e else "n/a",
             "(%.1f, %.1f)" % (site["x_m"], site["y_m"]) if site else "none",
             r["reason"] if r["status"] != "ok" else (
                 "none" if not site else ("safe" if site["truly_safe"] else "UNSAFE (%d hazard cells)" %
-                                         site["cells_hazard"]))))
-    if unsafe:
-        lines += ["", "Unsafe trials:", ""] + [trial_row(t) for t in unsafe]
+                                         site["cells_hazard"])),
+            touchdown_text(site) if site else ""))
+    flagged = [t for t in chosen if not t["site"]["truly_safe"] or at_touchdown(t["site"]) is not True]
+    if flagged:
+        lines += ["", "Trials not safe both ways (at the world coordinates, at touchdown):", "",
+                  "| dataset | target (m) | site (m) | est. slope / roughness | true slope / roughness | verdict | "
+                  "at touchdown |", "|---|---|---|---|---|---|---|"] + [trial_row(t) for t in flagged]
     return "\n".join(lines) + "\n", {
         "runs": len(results), "failed": len(failed), "planned_safe": len(planned_chosen) - len(planned_unsafe),
         "planned_unsafe": len(planned_unsafe), "planned_none": len(planned) - len(planned_chosen),
         "trials": len(trials), "chosen": len(chosen), "unsafe": len(unsafe), "confidence_k": k,
         "distinct_safe": sum(1 for v in distinct.values() if v),
-        "distinct_unsafe": sum(1 for v in distinct.values() if not v)}
+        "distinct_unsafe": sum(1 for v in distinct.values() if not v),
+        "touchdown_judged": len(td), "touchdown_unsafe": len(td_unsafe), "touchdown_not_judged": len(td_edge),
+        "touchdown_planned_unsafe": len(td_planned_unsafe),
+        "touchdown_distinct_unsafe": sum(1 for v in td_distinct.values() if not v)}
 
 
 def main():
@@ -359,7 +432,8 @@ def main():
     if a.targets:
         a.target_list = [tuple(float(v) for v in t.split(",")) for t in a.targets.split(";") if t.strip()]
     os.makedirs(a.out, exist_ok=True)
-    print("| dataset | target (m) | site (m) | est. slope / roughness | true slope / roughness | verdict |")
+    print("| dataset | target (m) | site (m) | est. slope / roughness | true slope / roughness | verdict | "
+          "at touchdown |")
     print("|---|---|---|---|---|---|")
     k = None
     if a.datasets:

@@ -16,15 +16,22 @@ have is left out, as the search does) and counts, per margin, the qualifying cel
 the clearance. Many more cells than the few sites a search returns, so a denser statistic than a campaign's chosen
 sites; run it on maps the margin was not chosen on.
 
+--navigation-frame: the true terrain moved into the navigation's frame by the navigation's error at the end of the
+run (the run's terrain_eval JSON, `navigation_error_m`, written by hazard_campaign.py), as terrain_eval's
+"at touchdown" verdict does (terrain/terrain_score.h, truthInNavigationFrame): the ground the map saw at a cell,
+and where a lander guided by that navigation to the cell touches down.
+
   /usr/bin/python3 scripts/site_risk_check.py CAMPAIGN_DIR [CAMPAIGN_DIR ...] [--margins 0,1,2] [--k 2.5]
         [--weight 0.5] [--max-slope-deg 10] [--max-roughness-m 0.3] [--max-shading-slope-deg 2.7]
-        [--max-shadow-fraction 0.5] [--clearance-m 3] [--footprint-m 4] [--low-sun-deg 15]
+        [--max-shadow-fraction 0.5] [--clearance-m 3] [--footprint-m 4] [--low-sun-deg 15] [--navigation-frame]
 
 CAMPAIGN_DIR: a scripts/hazard_campaign.py --runs output folder (runs/run_*/dataset with the true terrain and
 sequence.yaml, runs/run_*/terrain with the map). Needs numpy, scipy and yaml.
 """
 import argparse
 import glob
+import json
+import math
 import os
 import sys
 
@@ -45,6 +52,33 @@ def sun_deg(dataset, key="elevation_deg"):
         return None
 
 
+def navigation_error(run):
+    """The navigation's error (estimate - truth, m) at the end of a campaign run, from its terrain_eval JSON
+    files (hazard_campaign.py runs terrain_eval --navigation-error-from); None when none of them has it."""
+    for path in sorted(glob.glob(os.path.join(run, "t*.json"))):
+        try:
+            with open(path) as f:
+                e = json.load(f).get("navigation_error_m")
+        except (OSError, ValueError):
+            continue
+        if e:
+            return e
+    return None
+
+
+def in_navigation_frame(grid, error_m, cell_m):
+    """The layer moved by the navigation error (x, y) rounded to whole cells as truthInNavigationFrame does
+    (half away from zero): cell (row, col) shows the ground at (row - dr, col - dc); NaN where that is outside."""
+    def cells(v):
+        return int(math.copysign(math.floor(abs(v / cell_m) + 0.5), v))
+    dc, dr = cells(error_m[0]), cells(error_m[1])
+    out = np.full_like(grid, np.nan)
+    rows, cols = grid.shape
+    out[max(0, dr):rows + min(0, dr), max(0, dc):cols + min(0, dc)] = \
+        grid[max(0, -dr):rows + min(0, -dr), max(0, -dc):cols + min(0, -dc)]
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("campaigns", nargs="+")
@@ -54,6 +88,8 @@ def main():
     ap.add_argument("--max-roughness-m", type=float, default=0.3)
     ap.add_argument("--cell-m", type=float, default=0.5, help="the landing area's cell size (config/hazard.yaml)")
     ap.add_argument("--low-sun-deg", type=float, default=15.0)
+    ap.add_argument("--navigation-frame", action="store_true",
+                    help="the truth moved by the navigation's error at the end of each run (see above)")
     a = ap.parse_args()
     margins = [float(m) for m in a.margins.split(",")]
     bins = ("Sun < %g deg" % a.low_sun_deg, "Sun >= %g deg" % a.low_sun_deg, "Sun not given")
@@ -69,6 +105,14 @@ def main():
         true_rough = layer(gt, "groundtruth_terrain", "roughness_m")
         if slope is None or rough is None or true_slope is None or true_rough is None:
             continue
+        if a.navigation_frame:
+            error = navigation_error(run)
+            if error is None:
+                print("%s: no navigation error in its terrain_eval JSON (a run without a pose, or scored before "
+                      "session 27: run hazard_campaign.py again with --reuse); left out" % os.path.relpath(run))
+                continue
+            true_slope = in_navigation_frame(true_slope, error, a.cell_m)
+            true_rough = in_navigation_frame(true_rough, error, a.cell_m)
         maps += 1
         footprint = disc(0.5 * a.footprint_m / a.cell_m)
         sigma_s, sigma_r = layer(est, "terrain", "slope_sigma_deg"), layer(est, "terrain", "relief_sigma_m")

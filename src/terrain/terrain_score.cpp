@@ -150,6 +150,32 @@ SiteCheck checkSite(const GridSet& truth, const LandingSite& site, const HazardT
   return check;
 }
 
+GridSet truthInNavigationFrame(const GridSet& truth, double error_x_m, double error_y_m, double error_z_m) {
+  if (!std::isfinite(error_x_m) || !std::isfinite(error_y_m) || !std::isfinite(error_z_m))
+    throw std::invalid_argument("truthInNavigationFrame: the navigation error is not finite");
+  const GridGeometry& g = truth.geometry;
+  const long dc = std::lround(error_x_m / g.cell_size_m), dr = std::lround(error_y_m / g.cell_size_m);
+  GridSet moved = truth;
+  for (auto& [name, values] : moved.layers) {
+    const cv::Mat& from = truth.layers.at(name);
+    if (from.type() != CV_32FC1 || from.rows != g.rows || from.cols != g.cols)
+      throw std::invalid_argument("truthInNavigationFrame: the layer " + name + " is not CV_32F of its grid");
+    cv::Mat to = g.newLayer();
+    // to(row, col) = from(row - dr, col - dc): the cell at x shows the ground at x - e.
+    for (int row = 0; row < g.rows; ++row)
+      for (int col = 0; col < g.cols; ++col) {
+        const long r = row - dr, c = col - dc;
+        if (r >= 0 && c >= 0 && r < g.rows && c < g.cols) to.at<float>(row, col) = from.at<float>(r, c);
+      }
+    if (name == "elevation_m") to += static_cast<float>(error_z_m);
+    values = to;
+  }
+  moved.parameters["navigation_error_x_m"] = error_x_m;
+  moved.parameters["navigation_error_y_m"] = error_y_m;
+  moved.parameters["navigation_error_z_m"] = error_z_m;
+  return moved;
+}
+
 std::string toJson(const TerrainScore& s) {
   std::ostringstream out;
   out.precision(10);

@@ -3,7 +3,12 @@
 folder must link the first one's dataset (so that site_risk_check.py and shading_calibration.py read it like a
 rendered campaign), its navigation must repeat the first one's trajectory exactly (the same images and binaries),
 a second --renders-from into the same folder must work with the link already there (and replace a link to
-another campaign's render), and renders of another draw (another seed) must be refused."""
+another campaign's render), and renders of another draw (another seed) must be refused. Each terrain_eval of the
+campaign states the navigation's error at the end of the run (estimate - truth, the last pose: checked here from the
+trajectory and the ground truth) and judges the sites at touchdown too, and site_risk_check.py --navigation-frame
+reads it."""
+import glob
+import json
 import os
 import shutil
 import subprocess
@@ -33,6 +38,9 @@ class HazardCampaignRendersFrom(unittest.TestCase):
         self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
         rendered = os.path.join(first, "runs", "run_000", "dataset")
         self.assertTrue(os.path.isdir(os.path.join(rendered, "images")), done.stdout)
+        self.check_navigation_frame(os.path.join(first, "runs", "run_000"))
+        with open(os.path.join(first, "summary.md")) as f:
+            self.assertIn("at touchdown: all trials' sites judged", f.read())
         for attempt in range(2):  # the second time the link is already there
             done = self.run_tool(*DRAW, "--renders-from", first, "--out", second)
             self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
@@ -54,11 +62,40 @@ class HazardCampaignRendersFrom(unittest.TestCase):
                               capture_output=True, text=True, timeout=120)
         self.assertEqual(risk.returncode, 0, risk.stdout + risk.stderr)
         self.assertIn("all 1 maps:", risk.stdout)
+        risk = subprocess.run([PYTHON, os.path.join(ROOT, "scripts", "site_risk_check.py"), second, "--margins", "2",
+                               "--navigation-frame"], capture_output=True, text=True, timeout=120)
+        self.assertEqual(risk.returncode, 0, risk.stdout + risk.stderr)
+        self.assertIn("all 1 maps:", risk.stdout)
         # Renders of another draw are refused.
         other = self.run_tool("--runs", "1", "--seed", "4", "--size", "256", "--start-s", "50", "--jobs", "1",
                               "--renders-from", first, "--out", os.path.join(out, "other"))
         self.assertNotEqual(other.returncode, 0, other.stdout)
         self.assertIn("is another draw or kept no images", other.stdout + other.stderr)
+
+    def check_navigation_frame(self, run):
+        """The navigation error in every terrain_eval JSON of the run is the last estimated pose's position minus
+        the ground truth interpolated at its stamp, the same in all of them and in result.json."""
+        def poses(path):
+            with open(path) as f:
+                return [[float(v) for v in line.split()[:4]] for line in f if line.strip() and line[0] != "#"]
+        last = poses(os.path.join(run, "trajectory.txt"))[-1]
+        truth = poses(os.path.join(run, "dataset", "groundtruth.txt"))
+        after = next(i for i, p in enumerate(truth) if p[0] >= last[0])
+        a, b = truth[max(0, after - 1)], truth[after]
+        w = 0.0 if b[0] == a[0] else (last[0] - a[0]) / (b[0] - a[0])
+        expected = [last[k] - (a[k] + w * (b[k] - a[k])) for k in (1, 2, 3)]
+        jsons = glob.glob(os.path.join(run, "t*.json"))
+        self.assertEqual(len(jsons), 9)
+        for path in jsons:
+            with open(path) as f:
+                result = json.load(f)
+            for got, want in zip(result["navigation_error_m"], expected):
+                self.assertAlmostEqual(got, want, delta=1e-6)
+            self.assertIn("slope_rmse_deg", result["navigation_frame"]["full_resolution"])
+            if result["landing_site"] is not None:
+                self.assertIn(result["landing_site"]["safe_at_touchdown"], (True, False))
+        with open(os.path.join(run, "result.json")) as f:
+            self.assertEqual(json.load(f)["scores"]["navigation_error_m"], result["navigation_error_m"])
 
 
 if __name__ == "__main__":

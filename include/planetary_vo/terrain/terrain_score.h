@@ -59,6 +59,17 @@ struct SiteCheck {
 SiteCheck checkSite(const GridSet& truth, const LandingSite& site, const HazardThresholds& thresholds,
                     const LandingSiteParams& params);
 
+/// The truth as a map built in the navigation's frame sees it, and as a lander guided by that navigation
+/// meets it. The navigation places everything it sees displaced by its own error e = estimate - truth
+/// (world, m): the map's cell (x, y) shows the true ground at (x - e_x, y - e_y), e_z higher, and a lander
+/// that flies to a site at (x, y) by that navigation touches down on that same ground (with the error it
+/// had while mapping: what drifts after that is the site search's clearance). Every layer is moved by
+/// (e_x, e_y) rounded to whole cells (at most half a cell off per axis); `elevation_m` is raised by e_z;
+/// cells the move brings in from outside the grid are unknown (NaN). Scoring a map and checking its sites
+/// against this truth measures the map, not the navigation's absolute error at the time (which vision
+/// alone cannot remove without a map of the site). Throws std::invalid_argument on a non-finite error.
+GridSet truthInNavigationFrame(const GridSet& truth, double error_x_m, double error_y_m, double error_z_m);
+
 /// The score as one JSON object (NaN as null).
 std::string toJson(const TerrainScore& score);
 

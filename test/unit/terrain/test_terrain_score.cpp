@@ -150,6 +150,47 @@ TEST(TerrainScore, SiteCheckLooksAtEveryTrueCellWithinTheClearance) {
   EXPECT_EQ(check.cells_unknown, 1);
 }
 
+// The truth in the navigation's frame: a navigation error e = (1.2, -0.7, 0.5) m moves the ground to
+// (x + e_x, y + e_y), rounded to whole 0.5 m cells (+2, -1), and raises it by e_z; a site the map put on the
+// moved rock is unsafe there, and safe at the world's coordinates of that rock's image.
+TEST(TerrainScore, TruthInTheNavigationFrameIsTheGroundMovedByTheNavigationError) {
+  GridSet truth;
+  truth.geometry = GridGeometry::centeredOnOrigin(10.0, 0.5);
+  truth.layers["elevation_m"] = truth.geometry.newLayer(1.0f);
+  truth.layers["slope_deg"] = truth.geometry.newLayer(2.0f);
+  truth.layers["roughness_m"] = truth.geometry.newLayer(0.05f);
+  int col = 0, row = 0;
+  ASSERT_TRUE(truth.geometry.cellAt(0.0, 0.0, &col, &row));
+  truth.layers["roughness_m"].at<float>(row, col) = 0.5f;  // a rock at the world's origin
+  truth.layers["elevation_m"].at<float>(row, col) = 1.5f;
+  const GridSet moved = truthInNavigationFrame(truth, 1.2, -0.7, 0.5);
+  const cv::Mat& r = moved.layers.at("roughness_m");
+  const cv::Mat& z = moved.layers.at("elevation_m");
+  EXPECT_FLOAT_EQ(r.at<float>(row - 1, col + 2), 0.5f);
+  EXPECT_FLOAT_EQ(r.at<float>(row, col), 0.05f);
+  EXPECT_FLOAT_EQ(z.at<float>(row - 1, col + 2), 2.0f);
+  EXPECT_FLOAT_EQ(z.at<float>(row, col), 1.5f);
+  // Brought in from outside: unknown along the low-x edge (2 columns) and the high-y edge (1 row).
+  EXPECT_TRUE(std::isnan(r.at<float>(5, 0)) && std::isnan(r.at<float>(5, 1)));
+  EXPECT_FALSE(std::isnan(r.at<float>(5, 2)));
+  EXPECT_TRUE(std::isnan(r.at<float>(truth.geometry.rows - 1, 5)));
+  EXPECT_FALSE(std::isnan(r.at<float>(truth.geometry.rows - 2, 5)));
+  EXPECT_DOUBLE_EQ(moved.parameters.at("navigation_error_x_m"), 1.2);
+  // A site on the map's image of the rock, (1.0, -0.5): unsafe where the lander touches down, safe at the
+  // world's (1.0, -0.5), 1.1 m from the rock; one 2.5 m from the image is safe either way.
+  LandingSiteParams params;
+  params.min_clearance_m = 0.5;
+  LandingSite site;
+  site.x_m = 1.0;
+  site.y_m = -0.5;
+  EXPECT_TRUE(checkSite(truth, site, HazardThresholds(), params).truly_safe);
+  EXPECT_FALSE(checkSite(moved, site, HazardThresholds(), params).truly_safe);
+  site.x_m = 3.5;
+  EXPECT_TRUE(checkSite(truth, site, HazardThresholds(), params).truly_safe);
+  EXPECT_TRUE(checkSite(moved, site, HazardThresholds(), params).truly_safe);
+  EXPECT_THROW(truthInNavigationFrame(truth, std::nan(""), 0.0, 0.0), std::invalid_argument);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
