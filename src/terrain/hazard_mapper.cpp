@@ -70,6 +70,13 @@ std::vector<std::pair<const char*, Fields>> sectionsOf(HazardMapperConfig* c) {
         {"band_max_m", &c->shading.band_max_m},
         {"max_pixel_footprint_m", &c->shading.max_pixel_footprint_m},
         {"max_keyframes", &c->shading.max_keyframes}}},
+      {"shading_tilt",
+       {{"weight", &c->shading_tilt.weight},
+        {"footprint_sigma_m", &c->shading_tilt.footprint_sigma_m},
+        {"surround_sigma_m", &c->shading_tilt.surround_sigma_m},
+        {"max_pixel_footprint_m", &c->shading_tilt.max_pixel_footprint_m},
+        {"min_brightness", &c->shading_tilt.min_brightness},
+        {"max_keyframes", &c->shading_tilt.max_keyframes}}},
       {"thresholds",
        {{"max_slope_deg", &c->thresholds.max_slope_deg},
         {"max_roughness_m", &c->thresholds.max_roughness_m},
@@ -154,6 +161,13 @@ std::vector<std::string> validationErrors(const HazardMapperConfig& c) {
     ShadingRelief check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.shading);
   } catch (const std::invalid_argument& e) {
     problems.push_back(std::string("shading: ") + e.what());
+  }
+  try {
+    ShadingTilt check(PinholeCamera(64, 64, 50.0, 50.0, 32.0, 32.0), effective.shading_tilt,
+                      effective.shading.sun_elevation_deg, effective.shading.sun_azimuth_deg,
+                      effective.shading.min_sun_elevation_deg);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(std::string("shading_tilt: ") + e.what());
   }
   try {
     GridSet tiny;
@@ -279,7 +293,11 @@ void HazardMapper::setCamera(const PinholeCamera& camera) {
   auto densifier = std::make_unique<Densifier>(camera, config_.densifier);  // validates the camera
   auto shadows = std::make_unique<ShadowMap>(camera, config_.shadows);
   auto shading = std::make_unique<ShadingRelief>(camera, config_.shading);
+  auto tilt =
+      std::make_unique<ShadingTilt>(camera, config_.shading_tilt, config_.shading.sun_elevation_deg,
+                                    config_.shading.sun_azimuth_deg, config_.shading.min_sun_elevation_deg);
   camera_ = std::make_unique<PinholeCamera>(camera);
+  tilt_ = std::move(tilt);
   densifier_ = std::move(densifier);
   shadows_ = std::move(shadows);
   shading_ = std::move(shading);
@@ -293,6 +311,7 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
     densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
     shadows_->clear();
     shading_->clear();
+    tilt_->clear();
   }
   metric_ = metric_scale;
   map_.apply(events, metric_scale);
@@ -311,6 +330,8 @@ HazardMapperUpdate HazardMapper::apply(const MapEvents& events, bool metric_scal
   const double ground_z = map_.medianGroundHeight();
   update.shading_view_added =  // false unless the Sun is given and high enough (ShadingRelief::active)
       shading_->addKeyframe(kf.T_world_cam, keyframe_gray, std::isfinite(ground_z) ? ground_z : 0.0);
+  update.tilt_view_added =  // false unless shading_tilt.weight > 0 and the Sun is given (ShadingTilt::active)
+      tilt_->addKeyframe(kf.T_world_cam, keyframe_gray, std::isfinite(ground_z) ? ground_z : 0.0);
   if (!config_.densify) return update;
   MapEvents dense;
   dense.points_added = densifier_->addKeyframe(kf.timestamp_s, kf.T_world_cam, keyframe_gray,
@@ -326,11 +347,21 @@ void HazardMapper::reset() {
   if (camera_) densifier_ = std::make_unique<Densifier>(*camera_, config_.densifier);
   if (shadows_) shadows_->clear();
   if (shading_) shading_->clear();
+  if (tilt_) tilt_->clear();
 }
 
 HazardProducts HazardMapper::products() const {
   HazardProducts out;
   out.terrain = map_.products();
+  if (tilt_ && tilt_->active() && out.terrain.metric) {
+    // The plane fit's slope corrected along the Sun's azimuth by the keyframes' brightness (shading_tilt.h).
+    GridSet& g = out.terrain.grids;
+    cv::Mat delta;
+    g.layers["slope_deg"] =
+        tilt_->correctedSlope(g.geometry, g.layers.at("elevation_m"), g.layers.at("slope_deg"), &delta);
+    g.layers["shading_tilt_delta_deg"] = delta;
+    g.parameters["shading_tilt_weight"] = config_.shading_tilt.weight;
+  }
   if (shadows_ && config_.shadows.enabled && out.terrain.metric) {
     out.terrain.grids.layers["shadow_fraction"] =
         shadows_->shadowFraction(out.terrain.grids.geometry, out.terrain.grids.layers.at("elevation_m"),

@@ -29,6 +29,7 @@
 #include "planetary_vo/terrain/landing_area.h"
 #include "planetary_vo/terrain/landing_sites.h"
 #include "planetary_vo/terrain/shading_relief.h"
+#include "planetary_vo/terrain/shading_tilt.h"
 #include "planetary_vo/terrain/shadow_map.h"
 #include "planetary_vo/terrain/terrain_map.h"
 #include "planetary_vo/vo/map_events.h"
@@ -47,6 +48,10 @@ struct HazardMapperConfig {
   /// RMS slope between 0.5 and 2 m exceeds thresholds.max_shading_slope_deg is a hazard. Needs the Sun's
   /// elevation (shading.sun_elevation_deg; 0 = not given, then off).
   ShadingReliefConfig shading;
+  /// The plane fit's slope corrected along the Sun's azimuth by the keyframes' brightness once metric
+  /// (shading_tilt.h; the Sun from `shading`): the layer slope_deg then carries the correction and
+  /// shading_tilt_delta_deg the change. Off with weight 0.
+  ShadingTiltConfig shading_tilt;
   HazardThresholds thresholds;
   LandingSiteParams sites;
 };
@@ -80,6 +85,7 @@ struct HazardMapperUpdate {
   DensifierStats densifier;         ///< its counts when it ran
   bool shadow_view_added = false;   ///< the keyframe's shadows were kept (metric, shadows enabled)
   bool shading_view_added = false;  ///< the keyframe's shading was kept (metric, Sun given, fine enough)
+  bool tilt_view_added = false;     ///< ... and its relative brightness (shading_tilt on)
 };
 
 struct HazardProducts {
@@ -134,6 +140,7 @@ class HazardMapper {
   std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<ShadowMap> shadows_;
   std::unique_ptr<ShadingRelief> shading_;
+  std::unique_ptr<ShadingTilt> tilt_;
   bool metric_ = false;
 };
 

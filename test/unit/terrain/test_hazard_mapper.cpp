@@ -96,8 +96,12 @@ TEST(HazardMapperConfig, EveryBadKeyIsNamed) {
   EXPECT_NO_THROW(parseHazardMapperConfig("thresholds: {shading_margin_m: 0}\n"));
   EXPECT_THROW(parseHazardMapperConfig("shading: {sun_azimuth_deg: 400}\n"), HazardConfigError);
   EXPECT_EQ(parseHazardMapperConfig("shading: {sun_azimuth_deg: 250}\n").shading.sun_azimuth_deg, 250.0);
-  EXPECT_FALSE(parseHazardMapperConfig("shading: {normalise_turned_away: false}\n").shading.normalise_turned_away);
+  EXPECT_FALSE(
+      parseHazardMapperConfig("shading: {normalise_turned_away: false}\n").shading.normalise_turned_away);
   EXPECT_THROW(parseHazardMapperConfig("shading: {normalise_turned_away: 2.5}\n"), HazardConfigError);
+  EXPECT_DOUBLE_EQ(parseHazardMapperConfig("shading_tilt: {weight: 0.5}\n").shading_tilt.weight, 0.5);
+  EXPECT_THROW(parseHazardMapperConfig("shading_tilt: {weight: 1.5}\n"), HazardConfigError);
+  EXPECT_THROW(parseHazardMapperConfig("shading_tilt: {surround_sigma_m: 0.5}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("densifier: {grid_step_px: 0}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("sites: {max_sites: 0}\n"), HazardConfigError);
   EXPECT_THROW(parseHazardMapperConfig("map: {support_radius_m: .nan}\n"), HazardConfigError);
