@@ -17,9 +17,9 @@
 /// of the slope so formed to the plane fit's slope.
 ///
 /// Measured offline first (scripts/photoclinometry_check.py, the same steps over an orthoimage of every
-/// fifth image): on held-out seed 14's 15 maps the corrected slope was closer to the truth in the
-/// navigation's frame on 14 (RMSE over each map's cells, e.g. 3.09 -> 2.24 deg), and the site search
-/// certified 1981 cells instead of 1681, none next to a true hazard either way (docs/terrain/README.md).
+/// fifth image): chosen on seed 14, held out on seed 15 (weight below). On seed 14 this stage gives what
+/// the replica gave: the site search certified 1996 cells (replica 1981, without 1681), none next to a true
+/// hazard at touchdown.
 ///
 /// Needs the Sun's elevation and azimuth (the ephemeris; ShadingReliefConfig's). Off (weight 0), without
 /// them, or under a Sun below min_sun_elevation_deg: no keyframe is kept and the slope is left alone.
@@ -38,8 +38,12 @@ namespace planetary_vo::terrain {
 
 struct ShadingTiltConfig {
   /// The weight of the photoclinometric gradient along the Sun's azimuth against the map's own; 0 = off.
-  /// Must be in [0, 1].
-  double weight = 0.0;
+  /// Must be in [0, 1]. 0.5, chosen with both sigmas on seed 14 and adopted on a criterion fixed before
+  /// held-out seed 15 (50 runs) finished: there the corrected slope was closer to the truth in the
+  /// navigation's frame on 45 of 47 maps (median RMSE 2.57 -> 2.31 deg), and the site search certified 6384
+  /// cells instead of 5717, none next to a true hazard at touchdown (2 before; docs/terrain/README.md,
+  /// session 27).
+  double weight = 0.5;
   /// [m] Gaussian sigmas on the ground of the patch and of its surroundings (0 < footprint < surround).
   double footprint_sigma_m = 1.0;
   double surround_sigma_m = 6.0;
