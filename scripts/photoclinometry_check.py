@@ -24,11 +24,11 @@ terrain_eval results with `navigation_error_m`):
   /usr/bin/python3 scripts/photoclinometry_check.py CAMPAIGN_DIR [--write DIR] [--footprint-sigma-m 1]
         [--surround-sigma-m 6] [--weight 0.5]
 
-Needs numpy, scipy, PIL and yaml.
+Needs numpy, scipy, PIL and yaml. The maps must be made with the shading tilt off (`shading_tilt: {weight: 0}`
+in the hazard config; it is on by default since session 27), else the slope would be corrected twice: refused.
 """
 import argparse
 import glob
-import json
 import math
 import os
 import shutil
@@ -38,6 +38,9 @@ import numpy as np
 import yaml
 from PIL import Image
 from scipy import ndimage
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from site_risk_check import in_navigation_frame, navigation_error  # noqa: E402  (as terrain_eval's touchdown)
 
 MAX_PIXEL_M = 0.25  # as the shading relief's max_pixel_footprint_m (terrain/shading_relief.h)
 IMAGE_STEP = 5
@@ -105,7 +108,11 @@ def corrected_slope(run, footprint_sigma_m, surround_sigma_m, weight):
     """(map slope, corrected slope, Sun elevation deg) of one run; None when it has no map or pose."""
     terrain = os.path.join(run, "terrain")
     with open(os.path.join(terrain, "terrain.yaml")) as f:
-        g = yaml.safe_load(f)["geometry"]
+        meta = yaml.safe_load(f)
+    if (meta.get("parameters") or {}).get("shading_tilt_weight", 0) > 0:
+        sys.exit("photoclinometry_check: %s was mapped with the shading tilt on (its slope is corrected already); "
+                 "measure on maps made with shading_tilt.weight 0" % terrain)
+    g = meta["geometry"]
     geometry = (g["x0_m"], g["y0_m"], g["cell_size_m"])
     elevation = tiff(os.path.join(terrain, "terrain_elevation_m.tiff"))
     slope = tiff(os.path.join(terrain, "terrain_slope_deg.tiff"))
@@ -131,26 +138,6 @@ def corrected_slope(run, footprint_sigma_m, surround_sigma_m, weight):
     return slope, slope + delta, sun["elevation_deg"]
 
 
-def navigation_error(run):
-    for path in sorted(glob.glob(os.path.join(run, "t*.json"))):
-        with open(path) as f:
-            e = json.load(f).get("navigation_error_m")
-        if e:
-            return e
-    return None
-
-
-def truth_in_navigation_frame(grid, error_m, cell_m):
-    def cells(v):
-        return int(math.copysign(math.floor(abs(v / cell_m) + 0.5), v))
-    dc, dr = cells(error_m[0]), cells(error_m[1])
-    out = np.full_like(grid, np.nan)
-    rows, cols = grid.shape
-    out[max(0, dr):rows + min(0, dr), max(0, dc):cols + min(0, dc)] = \
-        grid[max(0, -dr):rows + min(0, -dr), max(0, -dc):cols + min(0, -dc)]
-    return out
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("campaign")
@@ -171,7 +158,7 @@ def main():
             print("%s: no navigation error or no images; left out" % name)
             continue
         slope, new, sun = corrected_slope(run, a.footprint_sigma_m, a.surround_sigma_m, a.weight)
-        true_slope = truth_in_navigation_frame(
+        true_slope = in_navigation_frame(
             tiff(os.path.join(run, "dataset", "groundtruth_terrain_slope_deg.tiff")), error, 0.5)
         m = np.isfinite(slope) & np.isfinite(true_slope)
         if m.sum() == 0:
