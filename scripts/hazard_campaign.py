@@ -434,7 +434,7 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     print("| dataset | target (m) | site (m) | est. slope / roughness | true slope / roughness | verdict | "
           "at touchdown |")
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     k = None
     if a.datasets:
         results = []
