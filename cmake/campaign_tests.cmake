@@ -32,6 +32,13 @@ endforeach()
 # test always reaches its clean-up; ctest's limit is the backstop.
 set_tests_properties(campaign_statistics campaign_local campaign_slurm PROPERTIES TIMEOUT 300)
 
+# photoclinometry_check: scripts/photoclinometry_check.py on a synthetic one-run campaign (swells the map sees
+# halved, Lambertian nadir images): the corrected slope comes closer to the truth, worse with the Sun's azimuth
+# flipped; the truth is moved by the run's navigation error; a map made with the shading tilt on is refused
+add_test(NAME photoclinometry_check
+         COMMAND /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_photoclinometry_check.py)
+set_tests_properties(photoclinometry_check PROPERTIES TIMEOUT 120)
+
 # `cmake --build build --target tests` builds the tools the end-to-end tests run.
 add_dependencies(tests lunar_render vo_run vo_eval terrain_eval)
 
