@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
 
 namespace planetary_vo::terrain {
 
@@ -18,6 +21,64 @@ bool resolvedPixel(const PinholeCamera& camera, const KeyframeView& view, const 
   if (!camera.isInImage(ideal, 0.0)) return false;
   *distorted_px = camera.distortPixel(ideal);
   return true;
+}
+
+void checkKeyframeImage(const PinholeCamera& camera, const cv::Mat& gray, const std::string& who) {
+  if (gray.type() != CV_8UC1 || gray.cols != camera.width() || gray.rows != camera.height())
+    throw std::invalid_argument(who + ": the keyframe image is not 8-bit gray of the camera's size (" +
+                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
+                                std::to_string(camera.width()) + "x" + std::to_string(camera.height()) + ")");
+}
+
+bool centrePixelFootprint(const PinholeCamera& camera, const Pose& T_world_cam, double ground_elevation_m,
+                          double* footprint_m) {
+  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
+  const double height = T_world_cam.translation().z() - ground_elevation_m;
+  if (!(axis.z() < -0.1) || !(height > 0.0)) return false;
+  *footprint_m = height / -axis.z() / std::max(camera.fx(), camera.fy());
+  return true;
+}
+
+cv::Mat reducedForSigma(const cv::Mat& gray, double sigma_m, double pixel_footprint_m, int* scale_out) {
+  if (!(pixel_footprint_m > 0.0)) throw std::invalid_argument("reducedForSigma: pixel footprint must be > 0");
+  cv::Mat image;
+  gray.convertTo(image, CV_32F);
+  int scale = 1;
+  while (sigma_m / (pixel_footprint_m * scale * 2) >= 2.0 && image.cols >= 64 && image.rows >= 64) {
+    cv::pyrDown(image, image);
+    scale *= 2;
+  }
+  if (scale_out) *scale_out = scale;
+  return image;
+}
+
+cv::Mat meanOverKeptImages(const PinholeCamera& camera, const std::deque<KeptImage>& images,
+                           const GridGeometry& geometry, const cv::Mat& elevation_m, double max_footprint_m) {
+  cv::Mat out = geometry.newLayer();
+  if (images.empty()) return out;
+  for (int row = 0; row < geometry.rows; ++row) {
+    const float* z = elevation_m.ptr<float>(row);
+    float* o = out.ptr<float>(row);
+    for (int col = 0; col < geometry.cols; ++col) {
+      if (!std::isfinite(z[col])) continue;
+      const Eigen::Vector3d p(geometry.x_m(col), geometry.y_m(row), z[col]);
+      double sum = 0.0;
+      int n = 0;
+      for (const KeptImage& image : images) {
+        Eigen::Vector2d px;
+        if (!resolvedPixel(camera, image.pose, p, max_footprint_m, &px)) continue;
+        px /= image.scale;
+        const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
+        if (c < 0 || r < 0 || c >= image.values.cols || r >= image.values.rows) continue;
+        const float v = static_cast<float>(image.values.at<cv::float16_t>(r, c));
+        if (!std::isfinite(v)) continue;
+        sum += v;
+        ++n;
+      }
+      if (n > 0) o[col] = static_cast<float>(sum / n);
+    }
+  }
+  return out;
 }
 
 }  // namespace planetary_vo::terrain

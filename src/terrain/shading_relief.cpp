@@ -29,21 +29,10 @@ ShadingRelief::ShadingRelief(const PinholeCamera& camera, const ShadingReliefCon
 }
 
 cv::Mat ShadingRelief::bandEnergy(const cv::Mat& gray, double pixel_footprint_m, int* scale_out) const {
-  if (gray.type() != CV_8UC1 || gray.cols != camera_.width() || gray.rows != camera_.height())
-    throw std::invalid_argument("ShadingRelief: the keyframe image is not 8-bit gray of the camera's size (" +
-                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
-                                std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()) +
-                                ")");
-  if (!(pixel_footprint_m > 0.0)) throw std::invalid_argument("ShadingRelief: pixel footprint must be > 0");
+  checkKeyframeImage(camera_, gray, "ShadingRelief");
   // Reduce while band_min_m still spans at least 2 pixels.
-  cv::Mat image;
-  gray.convertTo(image, CV_32F);
   int scale = 1;
-  while (config_.band_min_m / (pixel_footprint_m * scale * 2) >= 2.0 && image.cols >= 64 &&
-         image.rows >= 64) {
-    cv::pyrDown(image, image);
-    scale *= 2;
-  }
+  const cv::Mat image = reducedForSigma(gray, config_.band_min_m, pixel_footprint_m, &scale);
   const double footprint = pixel_footprint_m * scale;
   cv::Mat fine, coarse;
   cv::GaussianBlur(image, fine, cv::Size(), config_.band_min_m / footprint, 0.0, cv::BORDER_REFLECT);
@@ -66,14 +55,13 @@ cv::Mat ShadingRelief::bandEnergy(const cv::Mat& gray, double pixel_footprint_m,
 
 bool ShadingRelief::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray, double ground_elevation_m) {
   if (!active()) return false;
-  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
-  const double height = T_world_cam.translation().z() - ground_elevation_m;
-  if (!(axis.z() < -0.1) || !(height > 0.0)) return false;
-  const double footprint = height / -axis.z() / std::max(camera_.fx(), camera_.fy());
-  if (footprint > config_.max_pixel_footprint_m) return false;
-  View view;
+  double footprint = 0.0;
+  if (!centrePixelFootprint(camera_, T_world_cam, ground_elevation_m, &footprint) ||
+      footprint > config_.max_pixel_footprint_m)
+    return false;
+  KeptImage view;
   view.pose = KeyframeView(T_world_cam);
-  bandEnergy(gray, footprint, &view.scale).convertTo(view.energy, CV_16F);
+  bandEnergy(gray, footprint, &view.scale).convertTo(view.values, CV_16F);
   views_.push_back(std::move(view));
   while (views_.size() > static_cast<size_t>(config_.max_keyframes)) views_.pop_front();
   return true;
@@ -92,27 +80,8 @@ cv::Mat ShadingRelief::slopeRms(const GridGeometry& geometry, const cv::Mat& ele
     return result;
   }
   // The mean energy of each cell over the views that resolve it.
-  cv::Mat cell_energy = geometry.newLayer();
-  for (int row = 0; row < geometry.rows; ++row) {
-    const float* z = elevation_m.ptr<float>(row);
-    float* out = cell_energy.ptr<float>(row);
-    for (int col = 0; col < geometry.cols; ++col) {
-      if (!std::isfinite(z[col])) continue;
-      const Eigen::Vector3d p(geometry.x_m(col), geometry.y_m(row), z[col]);
-      double sum = 0.0;
-      int n = 0;
-      for (const View& view : views_) {
-        Eigen::Vector2d px;
-        if (!resolvedPixel(camera_, view.pose, p, config_.max_pixel_footprint_m, &px)) continue;
-        px /= view.scale;
-        const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
-        if (c < 0 || r < 0 || c >= view.energy.cols || r >= view.energy.rows) continue;
-        sum += static_cast<float>(view.energy.at<cv::float16_t>(r, c));
-        ++n;
-      }
-      if (n > 0) out[col] = static_cast<float>(sum / n);
-    }
-  }
+  const cv::Mat cell_energy =
+      meanOverKeptImages(camera_, views_, geometry, elevation_m, config_.max_pixel_footprint_m);
   // RMS over the footprint disc, in degrees of slope.
   const double radius_cells = 0.5 * footprint_diameter_m / geometry.cell_size_m;
   const int reach = static_cast<int>(std::floor(radius_cells));

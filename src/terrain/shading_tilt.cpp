@@ -51,21 +51,10 @@ ShadingTilt::ShadingTilt(const PinholeCamera& camera, const ShadingTiltConfig& c
 }
 
 cv::Mat ShadingTilt::relativeBrightness(const cv::Mat& gray, double pixel_footprint_m, int* scale_out) const {
-  if (gray.type() != CV_8UC1 || gray.cols != camera_.width() || gray.rows != camera_.height())
-    throw std::invalid_argument("ShadingTilt: the keyframe image is not 8-bit gray of the camera's size (" +
-                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
-                                std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()) +
-                                ")");
-  if (!(pixel_footprint_m > 0.0)) throw std::invalid_argument("ShadingTilt: pixel footprint must be > 0");
-  cv::Mat image;
-  gray.convertTo(image, CV_32F);
-  int scale = 1;
+  checkKeyframeImage(camera_, gray, "ShadingTilt");
   // Reduce while the patch's sigma still spans at least 2 pixels.
-  while (config_.footprint_sigma_m / (pixel_footprint_m * scale * 2) >= 2.0 && image.cols >= 64 &&
-         image.rows >= 64) {
-    cv::pyrDown(image, image);
-    scale *= 2;
-  }
+  int scale = 1;
+  const cv::Mat image = reducedForSigma(gray, config_.footprint_sigma_m, pixel_footprint_m, &scale);
   const double pixel_m = pixel_footprint_m * scale;
   cv::Mat mask;
   cv::threshold(image, mask, config_.min_brightness - 1e-3, 1.0, cv::THRESH_BINARY);
@@ -78,14 +67,13 @@ cv::Mat ShadingTilt::relativeBrightness(const cv::Mat& gray, double pixel_footpr
 
 bool ShadingTilt::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray, double ground_elevation_m) {
   if (!active_) return false;
-  const Eigen::Vector3d axis = T_world_cam.linear().col(2);
-  const double height = T_world_cam.translation().z() - ground_elevation_m;
-  if (!(axis.z() < -0.1) || !(height > 0.0)) return false;
-  const double footprint = height / -axis.z() / std::max(camera_.fx(), camera_.fy());
-  if (footprint > config_.max_pixel_footprint_m) return false;
-  View view;
+  double footprint = 0.0;
+  if (!centrePixelFootprint(camera_, T_world_cam, ground_elevation_m, &footprint) ||
+      footprint > config_.max_pixel_footprint_m)
+    return false;
+  KeptImage view;
   view.pose = KeyframeView(T_world_cam);
-  relativeBrightness(gray, footprint, &view.scale).convertTo(view.relative, CV_16F);
+  relativeBrightness(gray, footprint, &view.scale).convertTo(view.values, CV_16F);
   views_.push_back(std::move(view));
   while (views_.size() > static_cast<size_t>(config_.max_keyframes)) views_.pop_front();
   return true;
@@ -95,31 +83,7 @@ cv::Mat ShadingTilt::cellRelativeBrightness(const GridGeometry& geometry, const 
   if (elevation_m.type() != CV_32FC1 || elevation_m.rows != geometry.rows ||
       elevation_m.cols != geometry.cols)
     throw std::invalid_argument("ShadingTilt: the elevation is not a CV_32F layer of the grid");
-  cv::Mat out = geometry.newLayer();
-  if (views_.empty()) return out;
-  for (int row = 0; row < geometry.rows; ++row) {
-    const float* z = elevation_m.ptr<float>(row);
-    float* o = out.ptr<float>(row);
-    for (int col = 0; col < geometry.cols; ++col) {
-      if (!std::isfinite(z[col])) continue;
-      const Eigen::Vector3d p(geometry.x_m(col), geometry.y_m(row), z[col]);
-      double sum = 0.0;
-      int n = 0;
-      for (const View& view : views_) {
-        Eigen::Vector2d px;
-        if (!resolvedPixel(camera_, view.pose, p, config_.max_pixel_footprint_m, &px)) continue;
-        px /= view.scale;
-        const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
-        if (c < 0 || r < 0 || c >= view.relative.cols || r >= view.relative.rows) continue;
-        const float v = static_cast<float>(view.relative.at<cv::float16_t>(r, c));
-        if (!std::isfinite(v)) continue;
-        sum += v;
-        ++n;
-      }
-      if (n > 0) o[col] = static_cast<float>(sum / n);
-    }
-  }
-  return out;
+  return meanOverKeptImages(camera_, views_, geometry, elevation_m, config_.max_pixel_footprint_m);
 }
 
 cv::Mat ShadingTilt::correctedSlope(const GridGeometry& geometry, const cv::Mat& elevation_m,

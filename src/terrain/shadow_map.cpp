@@ -23,11 +23,7 @@ ShadowMap::ShadowMap(const PinholeCamera& camera, const ShadowMapConfig& config)
 }
 
 cv::Mat ShadowMap::darkMask(const cv::Mat& gray) const {
-  if (gray.type() != CV_8UC1 || gray.cols != camera_.width() || gray.rows != camera_.height())
-    throw std::invalid_argument("ShadowMap: the keyframe image is not 8-bit gray of the camera's size (" +
-                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + ", camera " +
-                                std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()) +
-                                ")");
+  checkKeyframeImage(camera_, gray, "ShadowMap");
   // The 90th percentile from the histogram.
   int histogram[256] = {0};
   for (int row = 0; row < gray.rows; ++row) {

@@ -134,14 +134,9 @@ class ShadingRelief {
   cv::Mat bandEnergy(const cv::Mat& gray, double pixel_footprint_m, int* scale_out) const;
 
  private:
-  struct View {
-    KeyframeView pose;
-    int scale = 1;
-    cv::Mat energy;  ///< CV_16F
-  };
   PinholeCamera camera_;
   ShadingReliefConfig config_;
-  std::deque<View> views_;
+  std::deque<KeptImage> views_;  ///< values: the relative band energy
 };
 
 }  // namespace planetary_vo::terrain

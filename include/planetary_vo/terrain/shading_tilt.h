@@ -88,16 +88,11 @@ class ShadingTilt {
                          cv::Mat* delta_deg_out = nullptr) const;
 
  private:
-  struct View {
-    KeyframeView pose;
-    int scale = 1;
-    cv::Mat relative;  ///< CV_16F, NaN where unknown
-  };
   PinholeCamera camera_;
   ShadingTiltConfig config_;
   double sun_elevation_deg_ = 0.0, sun_azimuth_deg_ = -1.0;
   bool active_ = false;
-  std::deque<View> views_;
+  std::deque<KeptImage> views_;  ///< values: the relative brightness, NaN where unknown
 };
 
 }  // namespace planetary_vo::terrain
