@@ -174,6 +174,17 @@ void pnpFields(C& c, V& v) {
 }
 
 template <class C, class V>
+void motionFilterFields(C& c, V& v) {
+  v("enabled", c.enabled);
+  v("accel_sigma_ratio_per_s", c.accel_sigma_ratio_per_s, 1e-6, 1e3);
+  v("min_accel_sigma_depth_ratio", c.min_accel_sigma_depth_ratio, 0.0, 1e3);
+  v("angular_accel_sigma_dps2", c.angular_accel_sigma_dps2, 1e-6, 1e6);
+  v("min_pixel_sigma_px", c.min_pixel_sigma_px, 1e-4, 100.0);
+  v("gate_nis", c.gate_nis, 1.0, 1e9);
+  v("max_gap_s", c.max_gap_s, 1e-3, 1e3);
+}
+
+template <class C, class V>
 void bundleAdjustmentFields(C& c, V& v) {
   v("enabled", c.enabled);
   v("window_keyframes", c.window_keyframes, 2, 1000);
@@ -259,6 +270,8 @@ void forEachField(Cfg& cfg, V& v) {
   mapFields(cfg.map, v);
   v.beginSection("pnp");
   pnpFields(cfg.pnp, v);
+  v.beginSection("motion_filter");
+  motionFilterFields(cfg.motion_filter, v);
   v.beginSection("bundle_adjustment");
   bundleAdjustmentFields(cfg.bundle_adjustment, v);
   v.beginSection("pipeline");

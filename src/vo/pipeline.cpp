@@ -111,6 +111,7 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       mapper_(config.map),
       keyframe_tracker_(config.map.keyframe_features, config.map.keyframe_anchor_max_age, config.tracker,
                         config.detector),
+      motion_filter_(config.motion_filter),
       altimeter_(config.altimeter),
       inertial_(config.imu),
       frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff,
@@ -158,6 +159,7 @@ void Pipeline::reset() {
   frames_since_keyframe_ = 0;
   reference_.valid = false;
   last_good_.valid = false;
+  motion_filter_.reset();
 }
 
 void Pipeline::setCamera(const PinholeCamera& camera) {
@@ -385,6 +387,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   else
     processMap(start, &result);
   fillInertialOutput(&result);
+  filterPublishedPose(&result);
 
   T_world_cam_ = result.T_world_cam;
   state_ = result.state;
@@ -736,6 +739,31 @@ void Pipeline::trackAgainstMap(FrameResult* result) {
   result->num_inliers = pnp.num_inliers;
   result->pose_from_prediction = pnp.from_prediction;
   snapshotCurrent(timestamp_s_, pnp.T_world_cam, &last_good_);
+}
+
+void Pipeline::filterPublishedPose(FrameResult* result) {
+  if (!config_.motion_filter.enabled || config_.imu.enabled ||
+      config_.pipeline.trajectory_mode != TrajectoryMode::kMap)
+    return;
+  if (result->state != TrackingState::kTracking || result->motion != MotionEstimate::kPnp) {
+    // A lost frame coasts and the filter predicts over the gap; a new map (initialising, recovered) is
+    // another frame of reference.
+    if (result->state != TrackingState::kLost) motion_filter_.reset();
+    return;
+  }
+  if (metric_scale_ != motion_filter_metric_scale_) {
+    motion_filter_.reset();
+    motion_filter_metric_scale_ = metric_scale_;
+  }
+  const PoseMeasurement m =
+      poseMeasurement(timestamp_s_, result->T_world_cam, assoc_.p_world, assoc_.px, assoc_.inlier,
+                      camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
+                      config_.motion_filter.min_pixel_sigma_px);
+  if (!m.valid) {
+    motion_filter_.reset();
+    return;
+  }
+  result->T_world_cam = motion_filter_.update(m).T_world_cam;
 }
 
 void Pipeline::startRecovery() {

@@ -56,6 +56,7 @@
 #include "planetary_vo/vo/klt_tracker.h"
 #include "planetary_vo/vo/map.h"
 #include "planetary_vo/vo/mapper.h"
+#include "planetary_vo/vo/motion_filter.h"
 #include "planetary_vo/vo/pnp_tracker.h"
 
 namespace planetary_vo {
@@ -244,6 +245,9 @@ class Pipeline {
   void addInertialFactors(BaProblem* problem) const;
   /// Velocity and biases of this frame (camera + IMU mode).
   void fillInertialOutput(FrameResult* result) const;
+  /// The published pose of a frame tracked against the map through the motion filter (vision only:
+  /// motion_filter.h); the filter restarts on a new or rescaled map.
+  void filterPublishedPose(FrameResult* result);
 
   VoConfig config_;
   PinholeCamera camera_;
@@ -254,6 +258,8 @@ class Pipeline {
   KeyframePolicy keyframe_policy_;
   Mapper mapper_;
   KeyframeTracker keyframe_tracker_;  ///< map.keyframe_features > 0
+  MotionFilter motion_filter_;        ///< motion_filter.enabled, vision only
+  bool motion_filter_metric_scale_ = false;  ///< the map's scale when the filter last ran
   cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
   /// The map-only tracking of the last keyframe when the optimiser runs in its own thread: running in the
   /// background until the next keyframe joins its tracks to that keyframe (keyframe_job_keyframe_id_), just

@@ -121,6 +121,13 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_FALSE(c.pnp.refine);
   EXPECT_FALSE(c.pnp.from_prediction);
   EXPECT_DOUBLE_EQ(c.pnp.prediction_min_inlier_ratio, 0.6);
+  EXPECT_TRUE(c.motion_filter.enabled);
+  EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s, 0.2);
+  EXPECT_DOUBLE_EQ(c.motion_filter.min_accel_sigma_depth_ratio, 0.01);
+  EXPECT_DOUBLE_EQ(c.motion_filter.angular_accel_sigma_dps2, 3.0);
+  EXPECT_DOUBLE_EQ(c.motion_filter.min_pixel_sigma_px, 0.2);
+  EXPECT_DOUBLE_EQ(c.motion_filter.gate_nis, 40.0);
+  EXPECT_DOUBLE_EQ(c.motion_filter.max_gap_s, 0.5);
 
   EXPECT_FALSE(c.bundle_adjustment.enabled);
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);
@@ -292,6 +299,15 @@ TEST(VoConfig, DenseMapConfigDiffersFromTheDefaultOnlyByTheMapOnlyFeatures) {
   EXPECT_EQ(c.map.keyframe_features, 500);
   c.map.keyframe_features = VoConfig().map.keyframe_features;
   EXPECT_TRUE(c == VoConfig()) << "config/dense_map.yaml changes more than map.keyframe_features:\n"
+                               << c.dump();
+}
+
+TEST(VoConfig, MotionFilterConfigDiffersFromTheDefaultOnlyByTheFilter) {
+  VoConfig c = loadVoConfig(sourceRoot() + "config/motion_filter.yaml");
+  EXPECT_TRUE(c.motion_filter.enabled);
+  EXPECT_FALSE(VoConfig().motion_filter.enabled);
+  c.motion_filter.enabled = VoConfig().motion_filter.enabled;
+  EXPECT_TRUE(c == VoConfig()) << "config/motion_filter.yaml changes more than motion_filter.enabled:\n"
                                << c.dump();
 }
 

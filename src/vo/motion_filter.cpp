@@ -1,0 +1,208 @@
+#include "planetary_vo/vo/motion_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+
+namespace planetary_vo {
+
+namespace {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d s;
+  s << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  return s;
+}
+
+Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  if (angle < 1e-12) return Eigen::Matrix3d::Identity() + skew(w);
+  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+}
+
+Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+/// The piecewise-constant random acceleration over dt: the [position, velocity] block of the process noise.
+void addProcessNoise(double sigma, double dt, int pos, int vel, Eigen::Matrix<double, 12, 12>* P) {
+  const double q = sigma * sigma;
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  P->block<3, 3>(pos, pos) += q * dt * dt * dt * dt / 4.0 * I;
+  P->block<3, 3>(pos, vel) += q * dt * dt * dt / 2.0 * I;
+  P->block<3, 3>(vel, pos) += q * dt * dt * dt / 2.0 * I;
+  P->block<3, 3>(vel, vel) += q * dt * dt * I;
+}
+
+}  // namespace
+
+PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
+                                const std::vector<Eigen::Vector3d>& p_world,
+                                const std::vector<Eigen::Vector2d>& px,
+                                const std::vector<unsigned char>& inlier, double fx, double fy, double cx,
+                                double cy, double min_pixel_sigma_px) {
+  if (p_world.size() != px.size() || (!inlier.empty() && inlier.size() != px.size()))
+    throw std::invalid_argument("poseMeasurement: p_world, px and inlier differ in size");
+  PoseMeasurement m;
+  m.timestamp_s = timestamp_s;
+  m.T_world_cam = T_world_cam;
+  const Eigen::Matrix3d R_cam_world = T_world_cam.linear().transpose();
+  const Eigen::Vector3d c = T_world_cam.translation();
+  Matrix6d JtJ = Matrix6d::Zero();
+  double sum_sq = 0.0;
+  int n = 0;
+  std::vector<double> depths;
+  depths.reserve(p_world.size());
+  for (size_t i = 0; i < p_world.size(); ++i) {
+    if (!inlier.empty() && inlier[i] == 0) continue;
+    const Eigen::Vector3d d_world = p_world[i] - c;
+    const Eigen::Vector3d p = R_cam_world * d_world;
+    if (!(p.z() > 0.0)) continue;
+    const double iz = 1.0 / p.z();
+    const Eigen::Vector2d predicted(fx * p.x() * iz + cx, fy * p.y() * iz + cy);
+    sum_sq += (predicted - px[i]).squaredNorm();
+    Eigen::Matrix<double, 2, 3> J_proj;
+    J_proj << fx * iz, 0.0, -fx * p.x() * iz * iz, 0.0, fy * iz, -fy * p.y() * iz * iz;
+    // p_cam = R^T (X - c) with R = Exp(dtheta) R_est, c = c_est + dc.
+    Eigen::Matrix<double, 3, 6> J_p;
+    J_p.leftCols<3>() = -R_cam_world;
+    J_p.rightCols<3>() = R_cam_world * skew(d_world);
+    const Eigen::Matrix<double, 2, 6> J = J_proj * J_p;
+    JtJ.noalias() += J.transpose() * J;
+    depths.push_back(p.z());
+    ++n;
+  }
+  if (n < 3) return m;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  m.median_depth = depths[depths.size() / 2];
+  // RMS of the 2n residuals' components, with the 6 degrees of freedom of the pose taken out.
+  const double dof = std::max(1, 2 * n - 6);
+  m.pixel_sigma_px = std::max(min_pixel_sigma_px, std::sqrt(sum_sq / dof));
+  m.information = JtJ / (m.pixel_sigma_px * m.pixel_sigma_px);
+  const Eigen::LDLT<Matrix6d> ldlt(m.information);
+  m.valid = ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all();
+  return m;
+}
+
+MotionFilter::MotionFilter(const MotionFilterConfig& config) : config_(config) {}
+
+void MotionFilter::reset() {
+  num_updates_ = 0;
+  num_gated_ = 0;
+}
+
+void MotionFilter::restartPose(const PoseMeasurement& m) {
+  c_world_ = m.T_world_cam.translation();
+  R_world_cam_ = m.T_world_cam.linear();
+  const Matrix6d cov = m.information.ldlt().solve(Matrix6d::Identity());
+  P_.topRows<6>().setZero();
+  P_.leftCols<6>().setZero();
+  P_.topLeftCorner<6, 6>() = 0.5 * (cov + cov.transpose());
+}
+
+void MotionFilter::startFromTwo(const PoseMeasurement& m, double dt) {
+  // The rates from first_ and m, their covariance from the two measurements'.
+  const Matrix6d cov1 = first_.information.ldlt().solve(Matrix6d::Identity());
+  const Matrix6d cov2 = m.information.ldlt().solve(Matrix6d::Identity());
+  restartPose(m);
+  v_world_ = (m.T_world_cam.translation() - first_.T_world_cam.translation()) / dt;
+  omega_world_ = logSO3(m.T_world_cam.linear() * first_.T_world_cam.linear().transpose()) / dt;
+  P_.bottomRightCorner<6, 6>() = (cov1 + cov2) / (dt * dt);
+  P_.block<6, 6>(6, 0) = cov2 / dt;
+  P_.block<6, 6>(0, 6) = cov2 / dt;
+  t_s_ = m.timestamp_s;
+  num_updates_ = std::max(num_updates_, 2);
+}
+
+FilteredPose MotionFilter::update(const PoseMeasurement& m) {
+  if (!m.valid) throw std::invalid_argument("MotionFilter::update: invalid measurement");
+  FilteredPose out;
+  out.T_world_cam = m.T_world_cam;
+  if (num_updates_ > 0 && (m.timestamp_s <= t_s_ || m.timestamp_s - t_s_ > config_.max_gap_s)) reset();
+  if (num_updates_ == 0) {
+    first_ = m;
+    last_ = m;
+    t_s_ = m.timestamp_s;
+    num_updates_ = 1;
+    return out;
+  }
+  const double dt = m.timestamp_s - t_s_;
+  if (num_updates_ == 1) {
+    startFromTwo(m, dt);
+    last_ = m;
+    out.v_world = v_world_;
+    out.omega_world = omega_world_;
+    return out;
+  }
+
+  // Predict: constant velocity and rate.
+  c_world_ += v_world_ * dt;
+  R_world_cam_ = expSO3(omega_world_ * dt) * R_world_cam_;
+  Matrix12d F = Matrix12d::Identity();
+  F.block<3, 3>(0, 6) = dt * Eigen::Matrix3d::Identity();
+  F.block<3, 3>(3, 9) = dt * Eigen::Matrix3d::Identity();
+  P_ = F * P_ * F.transpose();
+  // A turn rotates the velocity at the angular rate (a car's, a slewing lander's thrust): its acceleration is
+  // |omega| |v|, on top of the random one.
+  const double accel_sigma =
+      std::max((config_.accel_sigma_ratio_per_s + omega_world_.norm()) * v_world_.norm(),
+               config_.min_accel_sigma_depth_ratio * m.median_depth);
+  addProcessNoise(accel_sigma, dt, 0, 6, &P_);
+  addProcessNoise(config_.angular_accel_sigma_dps2 * M_PI / 180.0, dt, 3, 9, &P_);
+
+  // Update with the frame's pose.
+  Eigen::Matrix<double, 6, 1> y;
+  y.head<3>() = m.T_world_cam.translation() - c_world_;
+  y.tail<3>() = logSO3(m.T_world_cam.linear() * R_world_cam_.transpose());
+  const Matrix6d R_meas = m.information.ldlt().solve(Matrix6d::Identity());
+  const Matrix6d S = P_.topLeftCorner<6, 6>() + R_meas;
+  const Eigen::LDLT<Matrix6d> S_ldlt(S);
+  out.nis = y.dot(S_ldlt.solve(y));
+  t_s_ = m.timestamp_s;
+  ++num_updates_;
+  if (!std::isfinite(out.nis) || out.nis > config_.gate_nis) {
+    // The prediction does not explain the frame: the frame's pose as it is. The rates are kept (a map that
+    // moved as a whole leaves them right) but made as uncertain as two frames make them, so that the next
+    // frames correct them if the motion changed (a jolt, a turn).
+    ++num_gated_;
+    const Matrix6d rates_cov = P_.bottomRightCorner<6, 6>();
+    const Matrix6d cov_last = last_.information.ldlt().solve(Matrix6d::Identity());
+    const Matrix6d cov_m = m.information.ldlt().solve(Matrix6d::Identity());
+    restartPose(m);
+    P_.bottomRightCorner<6, 6>() = rates_cov + (cov_last + cov_m) / (dt * dt);
+    last_ = m;
+    out.gated = true;
+    out.v_world = v_world_;
+    out.omega_world = omega_world_;
+    return out;
+  }
+  last_ = m;
+  const Eigen::Matrix<double, 12, 6> K = S_ldlt.solve(P_.topRows<6>()).transpose();
+  const Eigen::Matrix<double, 12, 1> dx = K * y;
+  c_world_ += dx.segment<3>(0);
+  R_world_cam_ = expSO3(dx.segment<3>(3)) * R_world_cam_;
+  v_world_ += dx.segment<3>(6);
+  omega_world_ += dx.segment<3>(9);
+  // Joseph form.
+  Matrix12d IKH = Matrix12d::Identity();
+  IKH.leftCols<6>() -= K;
+  P_ = IKH * P_ * IKH.transpose() + K * R_meas * K.transpose();
+  P_ = 0.5 * (P_ + P_.transpose()).eval();
+
+  // Re-orthonormalise the attitude.
+  const Eigen::Quaterniond q(R_world_cam_);
+  R_world_cam_ = q.normalized().toRotationMatrix();
+  out.T_world_cam = Pose::Identity();
+  out.T_world_cam.linear() = R_world_cam_;
+  out.T_world_cam.translation() = c_world_;
+  out.v_world = v_world_;
+  out.omega_world = omega_world_;
+  out.filtered = true;
+  return out;
+}
+
+}  // namespace planetary_vo
