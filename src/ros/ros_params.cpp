@@ -18,9 +18,9 @@ namespace planetary_vo::ros_io {
 
 const char* const kFallbackCameraFrame = "camera_optical";
 
-const char* const kVoConfigSections[11] = {
-    "detector",          "tracker",  "map",       "keyframe", "motion",    "pnp",
-    "bundle_adjustment", "pipeline", "altimeter", "imu",      "cpu_budget"};
+const char* const kVoConfigSections[12] = {"detector", "tracker",   "map",           "keyframe",
+                                           "motion",   "pnp",       "motion_filter", "bundle_adjustment",
+                                           "pipeline", "altimeter", "imu",           "cpu_budget"};
 
 namespace {
 

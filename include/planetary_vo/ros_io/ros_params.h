@@ -20,7 +20,7 @@
 namespace planetary_vo::ros_io {
 
 /// Sections of VoConfig, as named in the YAML and under the private namespace.
-extern const char* const kVoConfigSections[11];
+extern const char* const kVoConfigSections[12];
 
 /// @brief Reads ~<section>/<key> for every section of VoConfig.
 /// @throws ConfigError naming every unknown or invalid key (with the "~" prefix of the namespace).
