@@ -39,6 +39,22 @@ bool centrePixelFootprint(const PinholeCamera& camera, const Pose& T_world_cam, 
   return true;
 }
 
+bool keepReducedImage(const PinholeCamera& camera, const Pose& T_world_cam, double ground_elevation_m,
+                      double max_footprint_m, int max_images,
+                      const std::function<cv::Mat(double footprint_m, int* scale)>& reduce,
+                      std::deque<KeptImage>* images) {
+  double footprint = 0.0;
+  if (!centrePixelFootprint(camera, T_world_cam, ground_elevation_m, &footprint) ||
+      footprint > max_footprint_m)
+    return false;
+  KeptImage image;
+  image.pose = KeyframeView(T_world_cam);
+  reduce(footprint, &image.scale).convertTo(image.values, CV_16F);
+  images->push_back(std::move(image));
+  while (images->size() > static_cast<size_t>(std::max(0, max_images))) images->pop_front();
+  return true;
+}
+
 cv::Mat reducedForSigma(const cv::Mat& gray, double sigma_m, double pixel_footprint_m, int* scale_out) {
   if (!(pixel_footprint_m > 0.0)) throw std::invalid_argument("reducedForSigma: pixel footprint must be > 0");
   cv::Mat image;

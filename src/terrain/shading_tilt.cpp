@@ -67,16 +67,9 @@ cv::Mat ShadingTilt::relativeBrightness(const cv::Mat& gray, double pixel_footpr
 
 bool ShadingTilt::addKeyframe(const Pose& T_world_cam, const cv::Mat& gray, double ground_elevation_m) {
   if (!active_) return false;
-  double footprint = 0.0;
-  if (!centrePixelFootprint(camera_, T_world_cam, ground_elevation_m, &footprint) ||
-      footprint > config_.max_pixel_footprint_m)
-    return false;
-  KeptImage view;
-  view.pose = KeyframeView(T_world_cam);
-  relativeBrightness(gray, footprint, &view.scale).convertTo(view.values, CV_16F);
-  views_.push_back(std::move(view));
-  while (views_.size() > static_cast<size_t>(config_.max_keyframes)) views_.pop_front();
-  return true;
+  return keepReducedImage(
+      camera_, T_world_cam, ground_elevation_m, config_.max_pixel_footprint_m, config_.max_keyframes,
+      [&](double footprint_m, int* scale) { return relativeBrightness(gray, footprint_m, scale); }, &views_);
 }
 
 cv::Mat ShadingTilt::cellRelativeBrightness(const GridGeometry& geometry, const cv::Mat& elevation_m) const {

@@ -7,26 +7,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "planetary_vo/fusion/imu_preintegration.h"  // skew, expSO3, logSO3
+
 namespace planetary_vo {
 
 namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
-  Eigen::Matrix3d s;
-  s << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
-  return s;
-}
-
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  if (angle < 1e-12) return Eigen::Matrix3d::Identity() + skew(w);
-  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-}
-
-Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
 
 /// The piecewise-constant random acceleration over dt: the [position, velocity] block of the process noise.
 void addProcessNoise(double sigma, double dt, int pos, int vel, Eigen::Matrix<double, 12, 12>* P) {
@@ -44,7 +29,7 @@ PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
                                 const std::vector<Eigen::Vector3d>& p_world,
                                 const std::vector<Eigen::Vector2d>& px,
                                 const std::vector<unsigned char>& inlier, double fx, double fy, double cx,
-                                double cy, double min_pixel_sigma_px) {
+                                double cy, double min_pixel_sigma_px, std::vector<double>* depth_scratch) {
   if (p_world.size() != px.size() || (!inlier.empty() && inlier.size() != px.size()))
     throw std::invalid_argument("poseMeasurement: p_world, px and inlier differ in size");
   PoseMeasurement m;
@@ -54,9 +39,9 @@ PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
   const Eigen::Vector3d c = T_world_cam.translation();
   Matrix6d JtJ = Matrix6d::Zero();
   double sum_sq = 0.0;
-  int n = 0;
-  std::vector<double> depths;
-  depths.reserve(p_world.size());
+  std::vector<double> local_depths;
+  std::vector<double>& depths = depth_scratch ? *depth_scratch : local_depths;
+  depths.clear();
   for (size_t i = 0; i < p_world.size(); ++i) {
     if (!inlier.empty() && inlier[i] == 0) continue;
     const Eigen::Vector3d d_world = p_world[i] - c;
@@ -74,48 +59,44 @@ PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
     const Eigen::Matrix<double, 2, 6> J = J_proj * J_p;
     JtJ.noalias() += J.transpose() * J;
     depths.push_back(p.z());
-    ++n;
   }
+  const int n = static_cast<int>(depths.size());
   if (n < 3) return m;
-  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-  m.median_depth = depths[depths.size() / 2];
+  std::nth_element(depths.begin(), depths.begin() + n / 2, depths.end());
+  m.median_depth = depths[static_cast<size_t>(n / 2)];
   // RMS of the 2n residuals' components, with the 6 degrees of freedom of the pose taken out.
   const double dof = std::max(1, 2 * n - 6);
   m.pixel_sigma_px = std::max(min_pixel_sigma_px, std::sqrt(sum_sq / dof));
   m.information = JtJ / (m.pixel_sigma_px * m.pixel_sigma_px);
   const Eigen::LDLT<Matrix6d> ldlt(m.information);
   m.valid = ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all();
+  if (m.valid) {
+    const Matrix6d cov = ldlt.solve(Matrix6d::Identity());
+    m.covariance = 0.5 * (cov + cov.transpose());
+  }
   return m;
 }
 
 MotionFilter::MotionFilter(const MotionFilterConfig& config) : config_(config) {}
 
-void MotionFilter::reset() {
-  num_updates_ = 0;
-  num_gated_ = 0;
-}
+void MotionFilter::reset() { num_updates_ = 0; }
 
 void MotionFilter::restartPose(const PoseMeasurement& m) {
   c_world_ = m.T_world_cam.translation();
   R_world_cam_ = m.T_world_cam.linear();
-  const Matrix6d cov = m.information.ldlt().solve(Matrix6d::Identity());
   P_.topRows<6>().setZero();
   P_.leftCols<6>().setZero();
-  P_.topLeftCorner<6, 6>() = 0.5 * (cov + cov.transpose());
+  P_.topLeftCorner<6, 6>() = m.covariance;
 }
 
 void MotionFilter::startFromTwo(const PoseMeasurement& m, double dt) {
-  // The rates from first_ and m, their covariance from the two measurements'.
-  const Matrix6d cov1 = first_.information.ldlt().solve(Matrix6d::Identity());
-  const Matrix6d cov2 = m.information.ldlt().solve(Matrix6d::Identity());
+  // The rates from last_ and m, their covariance from the two measurements'.
   restartPose(m);
-  v_world_ = (m.T_world_cam.translation() - first_.T_world_cam.translation()) / dt;
-  omega_world_ = logSO3(m.T_world_cam.linear() * first_.T_world_cam.linear().transpose()) / dt;
-  P_.bottomRightCorner<6, 6>() = (cov1 + cov2) / (dt * dt);
-  P_.block<6, 6>(6, 0) = cov2 / dt;
-  P_.block<6, 6>(0, 6) = cov2 / dt;
-  t_s_ = m.timestamp_s;
-  num_updates_ = std::max(num_updates_, 2);
+  v_world_ = (m.T_world_cam.translation() - last_.T_world_cam.translation()) / dt;
+  omega_world_ = logSO3(m.T_world_cam.linear() * last_.T_world_cam.linear().transpose()) / dt;
+  P_.bottomRightCorner<6, 6>() = (last_.covariance + m.covariance) / (dt * dt);
+  P_.block<6, 6>(6, 0) = m.covariance / dt;
+  P_.block<6, 6>(0, 6) = m.covariance / dt;
 }
 
 FilteredPose MotionFilter::update(const PoseMeasurement& m) {
@@ -123,16 +104,11 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   FilteredPose out;
   out.T_world_cam = m.T_world_cam;
   if (num_updates_ > 0 && (m.timestamp_s <= t_s_ || m.timestamp_s - t_s_ > config_.max_gap_s)) reset();
-  if (num_updates_ == 0) {
-    first_ = m;
-    last_ = m;
-    t_s_ = m.timestamp_s;
-    num_updates_ = 1;
-    return out;
-  }
   const double dt = m.timestamp_s - t_s_;
-  if (num_updates_ == 1) {
-    startFromTwo(m, dt);
+  t_s_ = m.timestamp_s;
+  if (num_updates_ < 2) {
+    if (num_updates_ == 1) startFromTwo(m, dt);
+    ++num_updates_;
     last_ = m;
     out.v_world = v_world_;
     out.omega_world = omega_world_;
@@ -158,22 +134,15 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   Eigen::Matrix<double, 6, 1> y;
   y.head<3>() = m.T_world_cam.translation() - c_world_;
   y.tail<3>() = logSO3(m.T_world_cam.linear() * R_world_cam_.transpose());
-  const Matrix6d R_meas = m.information.ldlt().solve(Matrix6d::Identity());
-  const Matrix6d S = P_.topLeftCorner<6, 6>() + R_meas;
-  const Eigen::LDLT<Matrix6d> S_ldlt(S);
+  const Eigen::LDLT<Matrix6d> S_ldlt(P_.topLeftCorner<6, 6>() + m.covariance);
   out.nis = y.dot(S_ldlt.solve(y));
-  t_s_ = m.timestamp_s;
-  ++num_updates_;
   if (!std::isfinite(out.nis) || out.nis > config_.gate_nis) {
     // The prediction does not explain the frame: the frame's pose as it is. The rates are kept (a map that
     // moved as a whole leaves them right) but made as uncertain as two frames make them, so that the next
     // frames correct them if the motion changed (a jolt, a turn).
-    ++num_gated_;
     const Matrix6d rates_cov = P_.bottomRightCorner<6, 6>();
-    const Matrix6d cov_last = last_.information.ldlt().solve(Matrix6d::Identity());
-    const Matrix6d cov_m = m.information.ldlt().solve(Matrix6d::Identity());
     restartPose(m);
-    P_.bottomRightCorner<6, 6>() = rates_cov + (cov_last + cov_m) / (dt * dt);
+    P_.bottomRightCorner<6, 6>() = rates_cov + (last_.covariance + m.covariance) / (dt * dt);
     last_ = m;
     out.gated = true;
     out.v_world = v_world_;
@@ -190,12 +159,11 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   // Joseph form.
   Matrix12d IKH = Matrix12d::Identity();
   IKH.leftCols<6>() -= K;
-  P_ = IKH * P_ * IKH.transpose() + K * R_meas * K.transpose();
+  P_ = IKH * P_ * IKH.transpose() + K * m.covariance * K.transpose();
   P_ = 0.5 * (P_ + P_.transpose()).eval();
 
   // Re-orthonormalise the attitude.
-  const Eigen::Quaterniond q(R_world_cam_);
-  R_world_cam_ = q.normalized().toRotationMatrix();
+  R_world_cam_ = Eigen::Quaterniond(R_world_cam_).normalized().toRotationMatrix();
   out.T_world_cam = Pose::Identity();
   out.T_world_cam.linear() = R_world_cam_;
   out.T_world_cam.translation() = c_world_;

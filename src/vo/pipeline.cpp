@@ -755,10 +755,9 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
     motion_filter_.reset();
     motion_filter_metric_scale_ = metric_scale_;
   }
-  const PoseMeasurement m =
-      poseMeasurement(timestamp_s_, result->T_world_cam, assoc_.p_world, assoc_.px, assoc_.inlier,
-                      camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
-                      config_.motion_filter.min_pixel_sigma_px);
+  const PoseMeasurement m = poseMeasurement(
+      timestamp_s_, result->T_world_cam, assoc_.p_world, assoc_.px, assoc_.inlier, camera_.fx(), camera_.fy(),
+      camera_.cx(), camera_.cy(), config_.motion_filter.min_pixel_sigma_px, &scratch_);
   if (!m.valid) {
     motion_filter_.reset();
     return;

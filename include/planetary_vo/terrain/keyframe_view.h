@@ -8,6 +8,7 @@
 /// mean over kept images per cell.
 
 #include <deque>
+#include <functional>
 #include <string>
 
 #include <Eigen/Core>
@@ -49,6 +50,13 @@ void checkKeyframeImage(const PinholeCamera& camera, const cv::Mat& gray, const 
 bool centrePixelFootprint(const PinholeCamera& camera, const Pose& T_world_cam, double ground_elevation_m,
                           double* footprint_m);
 
+/// Keeps a keyframe's reduced image in `images` (the newest `max_images`, oldest dropped) when its centre
+/// pixel covers at most `max_footprint_m` of ground (centrePixelFootprint): `reduce(footprint_m, &scale)`
+/// gives its per-pixel values (stored as CV_16F) and their scale. False, nothing kept, otherwise.
+bool keepReducedImage(const PinholeCamera& camera, const Pose& T_world_cam, double ground_elevation_m,
+                      double max_footprint_m, int max_images,
+                      const std::function<cv::Mat(double footprint_m, int* scale)>& reduce,
+                      std::deque<KeptImage>* images);
 /// `gray` as CV_32F, halved (pyrDown) while `sigma_m` would still span at least 2 pixels after the halving
 /// and the image has at least 64 pixels a side; `scale_out`: full-resolution pixels per reduced pixel.
 /// Throws std::invalid_argument unless pixel_footprint_m > 0.

@@ -43,20 +43,23 @@ struct PoseMeasurement {
   double timestamp_s = 0.0;
   Pose T_world_cam = Pose::Identity();
   Matrix6d information = Matrix6d::Zero();
-  double median_depth = 0.0;    ///< median depth of the points in front of the camera (map units)
-  double pixel_sigma_px = 0.0;  ///< the pixel noise the information was scaled with
+  Matrix6d covariance = Matrix6d::Zero();  ///< its inverse (when valid)
+  double median_depth = 0.0;               ///< median depth of the points in front of the camera (map units)
+  double pixel_sigma_px = 0.0;             ///< the pixel noise the information was scaled with
   bool valid = false;  ///< at least 3 points in front of the camera and a positive-definite information
 };
 
 /// The measurement of a frame posed at `T_world_cam` from the world points `p_world` seen at the ideal
 /// (undistorted) pixels `px` (intrinsics fx, fy, cx, cy); only the entries with `inlier` non-zero count
 /// (empty: all). The pixel noise is the RMS reprojection residual of those points, at least
-/// `min_pixel_sigma_px`.
+/// `min_pixel_sigma_px`. `depth_scratch` (optional): a buffer kept by a caller that measures every frame, so
+/// that the call allocates nothing.
 PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
                                 const std::vector<Eigen::Vector3d>& p_world,
                                 const std::vector<Eigen::Vector2d>& px,
                                 const std::vector<unsigned char>& inlier, double fx, double fy, double cx,
-                                double cy, double min_pixel_sigma_px);
+                                double cy, double min_pixel_sigma_px,
+                                std::vector<double>* depth_scratch = nullptr);
 
 /// What MotionFilter::update() gives back.
 struct FilteredPose {
@@ -79,28 +82,26 @@ class MotionFilter {
   /// Gaps longer than max_gap_s restart the filter from `m`.
   FilteredPose update(const PoseMeasurement& m);
 
+  /// Two measurements since the last restart: the next one is filtered.
   bool running() const { return num_updates_ >= 2; }
-  /// Updates whose prediction was rejected since the last reset(), and the updates since then.
-  int gatedUpdates() const { return num_gated_; }
-  int updates() const { return num_updates_; }
 
  private:
   using Matrix12d = Eigen::Matrix<double, 12, 12>;
   void restartPose(const PoseMeasurement& m);
-  /// Position and attitude from `m`, the rates from first_ to `m` (dt apart).
+  /// Position and attitude from `m`, the rates from last_ to `m` (dt apart).
   void startFromTwo(const PoseMeasurement& m, double dt);
 
   MotionFilterConfig config_;
-  int num_updates_ = 0;
-  int num_gated_ = 0;
+  int num_updates_ = 0;  ///< since the last restart
   double t_s_ = 0.0;
   Eigen::Vector3d c_world_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_world_cam_ = Eigen::Matrix3d::Identity();
   Eigen::Vector3d v_world_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d omega_world_ = Eigen::Vector3d::Zero();
   Matrix12d P_ = Matrix12d::Zero();  ///< [dc, dtheta, dv, domega]
-  PoseMeasurement first_;            ///< the first measurement, until the second gives the rates
-  PoseMeasurement last_;  ///< the last one (its covariance sizes the rates' after a rejected prediction)
+  /// The last measurement: the second one takes the rates from it, and its covariance sizes the rates' after
+  /// a rejected prediction.
+  PoseMeasurement last_;
 };
 
 }  // namespace planetary_vo
