@@ -54,6 +54,12 @@ constexpr double kMaxRivalShare = 0.75;
 // Sun 41.7 deg) the twin triangulated 0.8-0.93 of the right motion's points for 54 frames; at frame 3 its
 // cost was already 1.65x, and the maps of the 8 approach_nozzle renders measured started at 1.63-5.37x.
 constexpr double kMinRivalCostRatio = 1.5;
+// The motion that triangulates the most points is not started when a clearly different one explains the
+// views at less than 1/kMaxCountWinnerCostRatio of its cost (and not by the margin above, which would start
+// that one): on a plane, where both explain them equally, the ratio scatters about 1 with the noise (0.93 in
+// the synthetic 30-degree ground of the tests); the twin that started hazard campaign seed 15 run_047 cost
+// 1.43x the right motion (a ratio of 0.70).
+constexpr double kMaxCountWinnerCostRatio = 1.25;
 
 // Reprojection cost of a motion on the given correspondences: the sum over the points of the squared
 // reprojection error of their triangulation, truncated at max_error_px; a point behind either camera costs
@@ -268,52 +274,94 @@ Initialization Initializer::initialize(const std::vector<uint64_t>& track_ids,
   }
   std::sort(scored.begin(), scored.end(),
             [](const Scored& a, const Scored& b) { return a.tri.num_valid > b.tri.num_valid; });
-  const Scored& best = scored.front();
+  // The reprojection cost of each hypothesis on the correspondences any hypothesis counts as an inlier
+  // (computed only when two clearly different motions compete).
+  const bool any_rival = std::any_of(scored.begin() + 1, scored.end(), [&](const Scored& s) {
+    return isDifferentMotion(hypotheses[scored.front().index].T_c2_c1_unit, hypotheses[s.index].T_c2_c1_unit);
+  });
+  std::vector<double> cost(scored.size(), 0.0);
+  if (any_rival) {
+    std::vector<cv::Point2d> common1, common2;
+    for (size_t i = 0; i < px1.size(); ++i) {
+      const bool inlier = std::any_of(hypotheses.begin(), hypotheses.end(), [i](const RelativeMotion& m) {
+        return i >= m.inlier_mask.size() || m.inlier_mask[i] != 0;
+      });
+      if (!inlier) continue;
+      common1.push_back(px1[i]);
+      common2.push_back(px2[i]);
+    }
+    for (size_t k = 0; k < scored.size(); ++k)
+      cost[k] = reprojectionCost(common1, common2, K, hypotheses[scored[k].index].T_c2_c1_unit, tri_options);
+  }
+  // The lowest cost of the motion of scored[w] (the essential matrix and the right homography decomposition
+  // are the same motion, estimated differently) and of the motions clearly different from it.
+  auto groupCosts = [&](size_t w, double* own, double* rival, size_t* rival_at) {
+    *own = *rival = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < scored.size(); ++k) {
+      if (!isDifferentMotion(hypotheses[scored[w].index].T_c2_c1_unit, hypotheses[scored[k].index].T_c2_c1_unit)) {
+        *own = std::min(*own, cost[k]);
+      } else if (cost[k] < *rival) {
+        *rival = cost[k];
+        *rival_at = k;
+      }
+    }
+  };
+  size_t win = 0;  // the count winner...
+  if (any_rival) {
+    double own = 0.0, rival = 0.0;
+    size_t rival_at = 0;
+    groupCosts(0, &own, &rival, &rival_at);
+    if (rival * kMinRivalCostRatio <= own) {
+      // ...unless a clearly different motion explains the views at a fraction of its cost. The count favours
+      // the motion with the larger sideways baseline: more points pass the parallax threshold. Closing in on
+      // ground seen obliquely (the last 15 s of approach_nozzle, 1024 flight, hazard campaign seed 15 run_002)
+      // the planar twin of the forward motion triangulated 225 points against the right motion's 149, at 3x
+      // its cost, and a map started from it flew a pitch of 26 deg for the true 41 (Sim(3) ATE 2.6 %). The
+      // lowest-cost hypothesis wins.
+      win = rival_at;
+    }
+  }
+  const Scored& best = scored[win];
   init.motion = hypotheses[best.index];
   if (!init.motion.valid) {  // a rival only (see motionHypotheses) explains the views best
     init.reason = "a motion that failed its own checks (" + init.motion.reason + ") triangulates " +
-                  std::to_string(best.tri.num_valid) +
-                  " points, more than the valid one; waiting for more parallax";
+                  std::to_string(best.tri.num_valid) + " points" +
+                  (win == 0 ? ", more than the valid one" : " at a fraction of the valid one's cost") +
+                  "; waiting for more parallax";
     return init;
   }
-  for (size_t k = 1; k < scored.size(); ++k) {
+  for (size_t k = 0; k < scored.size(); ++k) {
     const RelativeMotion& other = hypotheses[scored[k].index];
     if (!isDifferentMotion(init.motion.T_c2_c1_unit, other.T_c2_c1_unit)) continue;
     init.rival_points = scored[k].tri.num_valid;  // sorted: the first different one is the strongest
-    if (scored[k].tri.num_valid >= kMaxRivalShare * best.tri.num_valid) {
-      // As many points either way: the reprojection cost on the correspondences any hypothesis counts as an
-      // inlier decides, if it clearly does. The best motion's cost is its group's lowest (the essential
-      // matrix and the right homography decomposition are the same motion, estimated differently); every
-      // rival of it must cost kMinRivalCostRatio times more.
-      std::vector<cv::Point2d> common1, common2;
-      for (size_t i = 0; i < px1.size(); ++i) {
-        const bool inlier = std::any_of(hypotheses.begin(), hypotheses.end(), [i](const RelativeMotion& m) {
-          return i >= m.inlier_mask.size() || m.inlier_mask[i] != 0;
-        });
-        if (!inlier) continue;
-        common1.push_back(px1[i]);
-        common2.push_back(px2[i]);
-      }
-      double best_cost = std::numeric_limits<double>::infinity();
-      double rival_cost = std::numeric_limits<double>::infinity();
-      for (const Scored& s : scored) {
-        const Pose& T = hypotheses[s.index].T_c2_c1_unit;
-        const double cost = reprojectionCost(common1, common2, K, T, tri_options);
-        if (isDifferentMotion(init.motion.T_c2_c1_unit, T))
-          rival_cost = std::min(rival_cost, cost);
-        else
-          best_cost = std::min(best_cost, cost);
-      }
-      init.rival_cost_ratio = rival_cost / std::max(best_cost, 1e-12);
-      if (!(rival_cost >= kMinRivalCostRatio * best_cost)) {
-        std::ostringstream why;
-        why.precision(3);
-        why << "two different motions explain the views (" << best.tri.num_valid << " and "
-            << scored[k].tri.num_valid << " points triangulated, reprojection cost ratio "
-            << init.rival_cost_ratio << "); waiting for more parallax";
-        init.reason = why.str();
-        return init;
-      }
+    double own = 0.0, rival = 0.0;
+    size_t rival_at = 0;
+    groupCosts(win, &own, &rival, &rival_at);
+    init.rival_cost_ratio = rival / std::max(own, 1e-12);
+    if (scored[k].tri.num_valid >= kMaxRivalShare * best.tri.num_valid &&
+        !(rival >= kMinRivalCostRatio * own)) {
+      // As many points either way (or more for the rival): the reprojection cost decides only if it clearly
+      // does; every rival must cost kMinRivalCostRatio times more.
+      std::ostringstream why;
+      why.precision(3);
+      why << "two different motions explain the views (" << best.tri.num_valid << " and "
+          << scored[k].tri.num_valid << " points triangulated, reprojection cost ratio "
+          << init.rival_cost_ratio << "); waiting for more parallax";
+      init.reason = why.str();
+      return init;
+    }
+    if (!(rival * kMaxCountWinnerCostRatio >= own)) {
+      // The count picks a motion that explains the views clearly worse than a different one, though not by
+      // the margin that would let the other win: nothing vouches for either. Hazard campaign seed 15 run_047
+      // (approach_nozzle, last 15 s): the twin triangulated 238 points against 163, at 1.43x the right
+      // motion's cost, and a map started from it was 2.6 % off (Sim(3) ATE).
+      std::ostringstream why;
+      why.precision(3);
+      why << "the motion triangulating the most points (" << best.tri.num_valid
+          << ") explains the views worse than a different one (" << scored[k].tri.num_valid
+          << " points, reprojection cost ratio " << init.rival_cost_ratio << "); waiting for more parallax";
+      init.reason = why.str();
+      return init;
     }
     break;
   }

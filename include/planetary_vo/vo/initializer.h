@@ -11,7 +11,10 @@
 /// instead. initialize() goes further, as ORB-SLAM does: both decompositions and the essential matrix are
 /// triangulated, and the motion that triangulates clearly the most points wins (on ground seen obliquely
 /// the wrong twin triangulates far fewer; the essential matrix on near-planar ground can land on that twin
-/// too, which is what made the Main Brake 30-degree sequence fail from a slightly different set of tracks).
+/// too, which is what made the Main Brake 30-degree sequence fail from a slightly different set of tracks),
+/// unless a clearly different motion explains the views at a fraction of its reprojection cost: moving
+/// mostly along the optical axis, the right motion passes fewer points through the parallax threshold than
+/// its more sideways twin, and only the relief's residual tells them apart.
 /// A pose that no check can vouch for is rejected, never guessed.
 
 #include <cstdint>
@@ -50,8 +53,9 @@ struct Initialization {
   std::vector<Eigen::Vector2d> px1, px2;   ///< their ideal pixels in both views
   double median_depth = 0.0;               ///< of points_c1, in baselines
   int rival_points = 0;  ///< points triangulated by the best clearly different motion hypothesis (0: none)
-  /// With a rival triangulating nearly as many points: its reprojection cost on the common correspondences
-  /// over the best motion's (0: not computed). Initialisation needs it at least 1.5.
+  /// The lowest reprojection cost of a clearly different motion on the common correspondences over the chosen
+  /// motion's (0: no rival). Initialisation needs it at least 1.5 when the rival triangulates 3/4 as many
+  /// points or more.
   double rival_cost_ratio = 0.0;
 };
 
@@ -72,8 +76,10 @@ class Initializer {
 
   /// @brief Two-view map: every motion hypothesis (see motionHypotheses()) triangulates its inliers, and the
   ///        one with the most points that pass the checks (in front, reprojection, parallax) wins, unless a
-  ///        clearly different motion triangulates at least 3/4 as many (ambiguous: rejected, wait for more
-  ///        parallax). Valid when at least motion.min_inliers points are triangulated.
+  ///        clearly different motion costs at most 1/1.5 of its reprojection cost on the common
+  ///        correspondences (then that one wins). The winner is rejected (wait for more parallax) when a
+  ///        rival triangulates at least 3/4 as many points without costing 1.5x more. Valid when at least
+  ///        motion.min_inliers points are triangulated.
   Initialization initialize(const std::vector<uint64_t>& track_ids, const std::vector<cv::Point2d>& px1,
                             const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K) const;
 

@@ -248,12 +248,76 @@ TEST(Initializer, ReliefOffThePlaneSettlesTheTwinThatTheCountsCannot) {
         if (spread == 0.0) {
           EXPECT_FALSE(map.valid) << "a plane started a map";
         }
-        if (map.valid && map.rival_cost_ratio > 0.0) {
-          expectMotionClose(map.motion, s.T_c2_c1, 2.0, 0.3);
+        if (map.valid && map.rival_points >= 0.75 * map.points_c1.size()) {
+          expectMotionClose(map.motion, s.T_c2_c1, 2.0, 0.3);  // the cost decided
+        } else if (map.valid) {
+          // The count decided: the right motion, within what 0.5 px of noise leaves E over relief (5.5 deg in
+          // direction at spread 160), not the twin (tens of degrees).
+          expectMotionClose(map.motion, s.T_c2_c1, 8.0, 0.5);
         }
       }
     }
   }
+}
+
+/// Closing in on ground seen 45 deg obliquely, as the nozzle-pointing camera does in the last 15 s of
+/// approach_nozzle: the ground's normal (towards it) is (0, sin 45, cos 45) in camera 1, `distance` away along
+/// it, with relief uniform in +-relief/2 along the normal; camera 2 moved `baseline` along (0, -0.45, 0.89) in
+/// camera 1 (forward and up in the image: descending 18 deg to the ground, as on hazard campaign seed 15
+/// run_002) and pitched 0.12 deg. Points are where random pixels of image 1 meet the ground, with `noise_px`.
+SyntheticTwoViewScene closingOnObliqueGround(double distance, double relief, double baseline, double noise_px,
+                                             uint32_t seed) {
+  SyntheticTwoViewScene s;
+  s.camera = thesisCamera();
+  const Eigen::Vector3d normal = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();
+  const Eigen::Vector3d c2_in_c1 = baseline * Eigen::Vector3d(0.0, -0.45, 0.89).normalized();
+  const Eigen::Matrix3d R_c2_c1 =
+      Eigen::AngleAxisd(0.12 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  s.T_c2_c1 = Pose::Identity();
+  s.T_c2_c1.linear() = R_c2_c1;
+  s.T_c2_c1.translation() = -R_c2_c1 * c2_in_c1;
+  cv::RNG rng(seed);
+  const Eigen::Matrix3d K = s.camera.K();
+  while (s.points_c1.size() < 300) {
+    const Eigen::Vector3d ray =
+        K.inverse() * Eigen::Vector3d(rng.uniform(0.0, 1024.0), rng.uniform(0.0, 1024.0), 1.0);
+    const double d = distance + rng.uniform(-0.5, 0.5) * relief;
+    const Eigen::Vector3d p = ray * (d / normal.dot(ray));
+    const Eigen::Vector3d p2 = s.T_c2_c1 * p;
+    const Eigen::Vector3d q1 = K * p, q2 = K * p2;
+    const cv::Point2d px1(q1.x() / q1.z(), q1.y() / q1.z()), px2(q2.x() / q2.z(), q2.y() / q2.z());
+    if (px2.x < 0 || px2.y < 0 || px2.x > 1024 || px2.y > 1024) continue;
+    s.points_c1.push_back(p);
+    s.px1.emplace_back(px1.x + rng.gaussian(noise_px), px1.y + rng.gaussian(noise_px));
+    s.px2.emplace_back(px2.x + rng.gaussian(noise_px), px2.y + rng.gaussian(noise_px));
+  }
+  return s;
+}
+
+TEST(Initializer, TheCostOverrulesACountThatFavoursTheTwinOfAForwardMotion) {
+  // Moving mostly along the optical axis, the right motion's rays meet at small angles near the focus of
+  // expansion and fewer of its points pass the triangulation parallax threshold than the planar twin's, whose
+  // translation is more sideways: counted alone, the twin wins (hazard campaign seed 15, approach_nozzle
+  // run_002: 225 points against 149, a map that pitched 26 deg for the true 41). The relief leaves the twin a
+  // reprojection cost several times the right motion's; the cost decides.
+  int twin_outcounts = 0;
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    const SyntheticTwoViewScene s = closingOnObliqueGround(184.0, 10.0, 7.0, 0.1, seed);
+    for (MotionModel model : {MotionModel::kHomography, MotionModel::kAuto}) {
+      SCOPED_TRACE(std::string(toString(model)) + " seed " + std::to_string(seed));
+      const Initialization map = Initializer(motionConfig(model), MapConfig(), Eigen::Vector3d::Zero())
+                                     .initialize(ids(s.px1.size()), s.px1, s.px2, s.camera.K());
+      std::cout << toString(model) << " seed " << seed << ": " << map.points_c1.size() << " points, rival "
+                << map.rival_points << " at " << map.rival_cost_ratio << "x the cost " << map.reason << "\n";
+      ASSERT_TRUE(map.valid) << map.reason;
+      expectMotionClose(map.motion, s.T_c2_c1, 3.0, 0.1);
+      EXPECT_GE(map.rival_cost_ratio, 1.5);
+      twin_outcounts += map.rival_points > static_cast<int>(map.points_c1.size());
+    }
+  }
+  EXPECT_GE(twin_outcounts, 5) << "precondition: on most of these pairs the twin triangulates more points";
+  // On flat ground (relief 0) the two motions cost the same and the count still decides: for this motion it
+  // picks the twin (docs/visual_core.md, step 15, a limitation: no check here can tell the motions apart).
 }
 
 TEST(Initializer, MapIsTheSceneAtUnitBaseline) {
