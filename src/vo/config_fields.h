@@ -177,6 +177,9 @@ template <class C, class V>
 void motionFilterFields(C& c, V& v) {
   v("enabled", c.enabled);
   v("accel_sigma_ratio_per_s", c.accel_sigma_ratio_per_s, 1e-6, 1e3);
+  v("constant_acceleration", c.constant_acceleration);
+  v("jerk_sigma_ratio_per_s2", c.jerk_sigma_ratio_per_s2, 1e-6, 1e3);
+  v("initial_accel_sigma_ratio_per_s", c.initial_accel_sigma_ratio_per_s, 1e-6, 1e3);
   v("min_accel_sigma_depth_ratio", c.min_accel_sigma_depth_ratio, 0.0, 1e3);
   v("angular_accel_sigma_dps2", c.angular_accel_sigma_dps2, 1e-6, 1e6);
   v("min_pixel_sigma_px", c.min_pixel_sigma_px, 1e-4, 100.0);

@@ -13,14 +13,25 @@ namespace planetary_vo {
 
 namespace {
 
+using Matrix15d = Eigen::Matrix<double, 15, 15>;
+
 /// The piecewise-constant random acceleration over dt: the [position, velocity] block of the process noise.
-void addProcessNoise(double sigma, double dt, int pos, int vel, Eigen::Matrix<double, 12, 12>* P) {
+void addProcessNoise(double sigma, double dt, int pos, int vel, Matrix15d* P) {
   const double q = sigma * sigma;
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
   P->block<3, 3>(pos, pos) += q * dt * dt * dt * dt / 4.0 * I;
   P->block<3, 3>(pos, vel) += q * dt * dt * dt / 2.0 * I;
   P->block<3, 3>(vel, pos) += q * dt * dt * dt / 2.0 * I;
   P->block<3, 3>(vel, vel) += q * dt * dt * I;
+}
+
+/// The piecewise-constant random jerk over dt: the [position, velocity, acceleration] blocks (0, 6, 12).
+void addJerkNoise(double sigma, double dt, Matrix15d* P) {
+  const double q = sigma * sigma;
+  const double g[3] = {dt * dt * dt / 6.0, dt * dt / 2.0, dt};
+  const int at[3] = {0, 6, 12};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) P->block<3, 3>(at[i], at[j]) += q * g[i] * g[j] * Eigen::Matrix3d::Identity();
 }
 
 }  // namespace
@@ -94,9 +105,17 @@ void MotionFilter::startFromTwo(const PoseMeasurement& m, double dt) {
   restartPose(m);
   v_world_ = (m.T_world_cam.translation() - last_.T_world_cam.translation()) / dt;
   omega_world_ = logSO3(m.T_world_cam.linear() * last_.T_world_cam.linear().transpose()) / dt;
-  P_.bottomRightCorner<6, 6>() = (last_.covariance + m.covariance) / (dt * dt);
+  P_.block<6, 6>(6, 6) = (last_.covariance + m.covariance) / (dt * dt);
   P_.block<6, 6>(6, 0) = m.covariance / dt;
   P_.block<6, 6>(0, 6) = m.covariance / dt;
+  // The acceleration starts at zero, as uncertain as a braking lander's (constant velocity: zero, and fixed).
+  a_world_.setZero();
+  P_.middleRows<3>(12).setZero();
+  P_.middleCols<3>(12).setZero();
+  if (config_.constant_acceleration) {
+    const double sigma = config_.initial_accel_sigma_ratio_per_s * v_world_.norm();
+    P_.block<3, 3>(12, 12) = sigma * sigma * Eigen::Matrix3d::Identity();
+  }
 }
 
 FilteredPose MotionFilter::update(const PoseMeasurement& m) {
@@ -115,12 +134,17 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
     return out;
   }
 
-  // Predict: constant velocity and rate.
-  c_world_ += v_world_ * dt;
+  // Predict: constant velocity (or acceleration) and rate.
+  c_world_ += v_world_ * dt + 0.5 * dt * dt * a_world_;
+  v_world_ += dt * a_world_;
   R_world_cam_ = expSO3(omega_world_ * dt) * R_world_cam_;
-  Matrix12d F = Matrix12d::Identity();
+  Matrix15d F = Matrix15d::Identity();
   F.block<3, 3>(0, 6) = dt * Eigen::Matrix3d::Identity();
   F.block<3, 3>(3, 9) = dt * Eigen::Matrix3d::Identity();
+  if (config_.constant_acceleration) {
+    F.block<3, 3>(0, 12) = 0.5 * dt * dt * Eigen::Matrix3d::Identity();
+    F.block<3, 3>(6, 12) = dt * Eigen::Matrix3d::Identity();
+  }
   P_ = F * P_ * F.transpose();
   // A turn rotates the velocity at the angular rate (a car's, a slewing lander's thrust): its acceleration is
   // |omega| |v|, on top of the random one.
@@ -129,6 +153,7 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
                config_.min_accel_sigma_depth_ratio * m.median_depth);
   addProcessNoise(accel_sigma, dt, 0, 6, &P_);
   addProcessNoise(config_.angular_accel_sigma_dps2 * M_PI / 180.0, dt, 3, 9, &P_);
+  if (config_.constant_acceleration) addJerkNoise(config_.jerk_sigma_ratio_per_s2 * v_world_.norm(), dt, &P_);
 
   // Update with the frame's pose.
   Eigen::Matrix<double, 6, 1> y;
@@ -140,24 +165,27 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
     // The prediction does not explain the frame: the frame's pose as it is. The rates are kept (a map that
     // moved as a whole leaves them right) but made as uncertain as two frames make them, so that the next
     // frames correct them if the motion changed (a jolt, a turn).
-    const Matrix6d rates_cov = P_.bottomRightCorner<6, 6>();
+    const Eigen::Matrix<double, 9, 9> rates_cov = P_.bottomRightCorner<9, 9>();
     restartPose(m);
-    P_.bottomRightCorner<6, 6>() = rates_cov + (last_.covariance + m.covariance) / (dt * dt);
+    P_.bottomRightCorner<9, 9>() = rates_cov;
+    P_.block<6, 6>(6, 6) += (last_.covariance + m.covariance) / (dt * dt);
     last_ = m;
     out.gated = true;
     out.v_world = v_world_;
     out.omega_world = omega_world_;
+    out.a_world = a_world_;
     return out;
   }
   last_ = m;
-  const Eigen::Matrix<double, 12, 6> K = S_ldlt.solve(P_.topRows<6>()).transpose();
-  const Eigen::Matrix<double, 12, 1> dx = K * y;
+  const Eigen::Matrix<double, 15, 6> K = S_ldlt.solve(P_.topRows<6>()).transpose();
+  const Eigen::Matrix<double, 15, 1> dx = K * y;
   c_world_ += dx.segment<3>(0);
   R_world_cam_ = expSO3(dx.segment<3>(3)) * R_world_cam_;
   v_world_ += dx.segment<3>(6);
   omega_world_ += dx.segment<3>(9);
+  a_world_ += dx.segment<3>(12);
   // Joseph form.
-  Matrix12d IKH = Matrix12d::Identity();
+  Matrix15d IKH = Matrix15d::Identity();
   IKH.leftCols<6>() -= K;
   P_ = IKH * P_ * IKH.transpose() + K * m.covariance * K.transpose();
   P_ = 0.5 * (P_ + P_.transpose()).eval();
@@ -169,6 +197,7 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   out.T_world_cam.translation() = c_world_;
   out.v_world = v_world_;
   out.omega_world = omega_world_;
+  out.a_world = a_world_;
   out.filtered = true;
   return out;
 }

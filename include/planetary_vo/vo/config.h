@@ -195,6 +195,12 @@ struct MotionFilterConfig {
   /// Random acceleration of the motion model, as a fraction of the speed per second (map units are not metres
   /// in vision-only mode): 0.05 lets the speed change by about 5 % a second between images.
   double accel_sigma_ratio_per_s = 0.05;
+  /// Also estimate a constant acceleration (a braking lander is then followed without lag), driven by a random
+  /// jerk of jerk_sigma_ratio_per_s2 times the speed; false: constant velocity.
+  bool constant_acceleration = false;
+  double jerk_sigma_ratio_per_s2 = 0.05;
+  /// The acceleration's uncertainty when the filter starts, as a fraction of the speed per second.
+  double initial_accel_sigma_ratio_per_s = 0.2;
   /// Floor of that acceleration, as a fraction of the median scene depth per second^2 (a hovering camera).
   double min_accel_sigma_depth_ratio = 0.001;
   /// Random angular acceleration of the motion model, deg/s^2.

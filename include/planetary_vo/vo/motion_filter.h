@@ -7,7 +7,8 @@
 /// next (the map moves slowly, the pixel noise of the tracks does not), so the difference of two consecutive
 /// poses is noisy even when the trajectory drifts little. This filter fuses each frame's pose with the
 /// prediction of a constant-velocity, constant-rate motion model (an error-state Kalman filter over the
-/// camera centre, attitude, velocity and angular rate; random accelerations as the process noise), weighting
+/// camera centre, attitude, velocity and angular rate; random accelerations as the process noise), or, with
+/// `constant_acceleration`, of a constant linear acceleration as well (driven by a random jerk), weighting
 /// the measurement by its own information: the reprojection Jacobians of the frame's inlier points. The
 /// directions the points pin down (the bearing of a nadir view) keep the measurement; the weak ones (the
 /// depth along the optical axis, the translation a small rotation mimics) take the prediction.
@@ -66,6 +67,7 @@ struct FilteredPose {
   Pose T_world_cam = Pose::Identity();
   Eigen::Vector3d v_world = Eigen::Vector3d::Zero();      ///< velocity of the camera centre, map units / s
   Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
+  Eigen::Vector3d a_world = Eigen::Vector3d::Zero();      ///< acceleration (constant_acceleration), units / s^2
   bool filtered =
       false;           ///< false: the measurement itself (first two frames, or after a rejected prediction)
   bool gated = false;  ///< the prediction was rejected (normalised innovation squared over gate_nis)
@@ -86,7 +88,7 @@ class MotionFilter {
   bool running() const { return num_updates_ >= 2; }
 
  private:
-  using Matrix12d = Eigen::Matrix<double, 12, 12>;
+  using Matrix15d = Eigen::Matrix<double, 15, 15>;
   void restartPose(const PoseMeasurement& m);
   /// Position and attitude from `m`, the rates from last_ to `m` (dt apart).
   void startFromTwo(const PoseMeasurement& m, double dt);
@@ -98,7 +100,8 @@ class MotionFilter {
   Eigen::Matrix3d R_world_cam_ = Eigen::Matrix3d::Identity();
   Eigen::Vector3d v_world_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d omega_world_ = Eigen::Vector3d::Zero();
-  Matrix12d P_ = Matrix12d::Zero();  ///< [dc, dtheta, dv, domega]
+  Eigen::Vector3d a_world_ = Eigen::Vector3d::Zero();  ///< zero, with zero covariance, for constant velocity
+  Matrix15d P_ = Matrix15d::Zero();  ///< [dc, dtheta, dv, domega, da]
   /// The last measurement: the second one takes the rates from it, and its covariance sizes the rates' after
   /// a rejected prediction.
   PoseMeasurement last_;

@@ -123,6 +123,9 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.pnp.prediction_min_inlier_ratio, 0.6);
   EXPECT_TRUE(c.motion_filter.enabled);
   EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s, 0.2);
+  EXPECT_TRUE(c.motion_filter.constant_acceleration);
+  EXPECT_DOUBLE_EQ(c.motion_filter.jerk_sigma_ratio_per_s2, 0.3);
+  EXPECT_DOUBLE_EQ(c.motion_filter.initial_accel_sigma_ratio_per_s, 0.4);
   EXPECT_DOUBLE_EQ(c.motion_filter.min_accel_sigma_depth_ratio, 0.01);
   EXPECT_DOUBLE_EQ(c.motion_filter.angular_accel_sigma_dps2, 3.0);
   EXPECT_DOUBLE_EQ(c.motion_filter.min_pixel_sigma_px, 0.2);
