@@ -188,16 +188,17 @@ struct PnpConfig {
 };
 
 /// The motion filter of the vision-only output (motion_filter.h): each frame's pose against the map fused with
-/// a constant-velocity prediction. Off in the camera + IMU mode (the IMU is the motion model there) and in the
-/// unit-step chain.
+/// a constant-acceleration (or constant-velocity) prediction. Off in the camera + IMU mode (the IMU is the
+/// motion model there) and in the unit-step chain.
 struct MotionFilterConfig {
-  bool enabled = false;  ///< opt-in: docs/visual_core.md step 14 (held out: one render's ATE 6.8 % worse)
+  bool enabled = true;  ///< the default since docs/visual_core.md step 16 (held out: 53 of 53 renders lower)
   /// Random acceleration of the motion model, as a fraction of the speed per second (map units are not metres
-  /// in vision-only mode): 0.05 lets the speed change by about 5 % a second between images.
-  double accel_sigma_ratio_per_s = 0.05;
+  /// in vision-only mode): 0.02 lets the speed change by about 2 % a second between images beyond the
+  /// estimated acceleration.
+  double accel_sigma_ratio_per_s = 0.02;
   /// Also estimate a constant acceleration (a braking lander is then followed without lag), driven by a random
-  /// jerk of jerk_sigma_ratio_per_s2 times the speed; false: constant velocity.
-  bool constant_acceleration = false;
+  /// jerk of jerk_sigma_ratio_per_s2 times the speed; false: constant velocity (step 14's filter).
+  bool constant_acceleration = true;
   double jerk_sigma_ratio_per_s2 = 0.05;
   /// The acceleration's uncertainty when the filter starts, as a fraction of the speed per second.
   double initial_accel_sigma_ratio_per_s = 0.2;

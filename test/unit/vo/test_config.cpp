@@ -121,9 +121,9 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_FALSE(c.pnp.refine);
   EXPECT_FALSE(c.pnp.from_prediction);
   EXPECT_DOUBLE_EQ(c.pnp.prediction_min_inlier_ratio, 0.6);
-  EXPECT_TRUE(c.motion_filter.enabled);
+  EXPECT_FALSE(c.motion_filter.enabled);
   EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s, 0.2);
-  EXPECT_TRUE(c.motion_filter.constant_acceleration);
+  EXPECT_FALSE(c.motion_filter.constant_acceleration);
   EXPECT_DOUBLE_EQ(c.motion_filter.jerk_sigma_ratio_per_s2, 0.3);
   EXPECT_DOUBLE_EQ(c.motion_filter.initial_accel_sigma_ratio_per_s, 0.4);
   EXPECT_DOUBLE_EQ(c.motion_filter.min_accel_sigma_depth_ratio, 0.01);
@@ -305,13 +305,12 @@ TEST(VoConfig, DenseMapConfigDiffersFromTheDefaultOnlyByTheMapOnlyFeatures) {
                                << c.dump();
 }
 
-TEST(VoConfig, MotionFilterConfigDiffersFromTheDefaultOnlyByTheFilter) {
-  VoConfig c = loadVoConfig(sourceRoot() + "config/motion_filter.yaml");
-  EXPECT_TRUE(c.motion_filter.enabled);
-  EXPECT_FALSE(VoConfig().motion_filter.enabled);
+TEST(VoConfig, RawPoseConfigDiffersFromTheDefaultOnlyByTheFilterOff) {
+  VoConfig c = loadVoConfig(sourceRoot() + "config/raw_pose.yaml");
+  EXPECT_FALSE(c.motion_filter.enabled);
+  EXPECT_TRUE(VoConfig().motion_filter.enabled);
   c.motion_filter.enabled = VoConfig().motion_filter.enabled;
-  EXPECT_TRUE(c == VoConfig()) << "config/motion_filter.yaml changes more than motion_filter.enabled:\n"
-                               << c.dump();
+  EXPECT_TRUE(c == VoConfig()) << "config/raw_pose.yaml changes more than motion_filter.enabled:\n" << c.dump();
 }
 
 TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
