@@ -440,7 +440,14 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
       s.w_body_radps =
           have_gyro_ ? Eigen::Vector3d(last_gyro_radps_ - r.imu_bias.gyro_radps) : Eigen::Vector3d::Zero();
       s.w_covariance = gyroCovariance();
-    } else {  // vision + altimeter: the camera's motion since the previous metric frame
+    } else if (r.filtered_motion.valid) {  // vision + altimeter: the motion filter's rates
+      T_cam_body_ = Pose::Identity();
+      const Eigen::Matrix3d R_cam_world = T_world_cam.rotation().transpose();
+      s.v_world_mps = r.filtered_motion.v_world;
+      s.w_body_radps = R_cam_world * r.filtered_motion.omega_world;
+      s.covariance.bottomRightCorner<3, 3>() = r.filtered_motion.v_covariance;
+      s.w_covariance = R_cam_world * r.filtered_motion.omega_covariance * R_cam_world.transpose();
+    } else {  // vision + altimeter without the filter: the camera's motion since the previous metric frame
       T_cam_body_ = Pose::Identity();
       const double dt = r.timestamp_s - nav_prev_time_s_;
       Eigen::Vector3d v, w;

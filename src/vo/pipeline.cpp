@@ -762,7 +762,16 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
     motion_filter_.reset();
     return;
   }
-  result->T_world_cam = motion_filter_.update(m).T_world_cam;
+  const FilteredPose filtered = motion_filter_.update(m);
+  result->T_world_cam = filtered.T_world_cam;
+  FilteredMotion& motion = result->filtered_motion;
+  motion.valid = filtered.filtered || filtered.gated;
+  if (motion.valid) {
+    motion.v_world = filtered.v_world;
+    motion.v_covariance = filtered.v_covariance;
+    motion.omega_world = filtered.omega_world;
+    motion.omega_covariance = filtered.omega_covariance;
+  }
 }
 
 void Pipeline::startRecovery() {

@@ -76,6 +76,16 @@ struct StageTimesMs {
   double pose_ms = 0.0;
 };
 
+/// The motion filter's rates at a frame (vo/motion_filter.h; vision only and vision + altimeter): its velocity
+/// is the published pose's, not a difference of two poses.
+struct FilteredMotion {
+  bool valid = false;  ///< the filter runs and published this frame's pose (false: the frame's own pose)
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();  ///< camera centre velocity, map units/s (m/s when metric)
+  Eigen::Matrix3d v_covariance = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
+  Eigen::Matrix3d omega_covariance = Eigen::Matrix3d::Zero();
+};
+
 /// Per-frame output of Pipeline::process().
 struct FrameResult {
   int64_t frame_index = -1;  ///< 0-based index of the image given to process()
@@ -126,6 +136,8 @@ struct FrameResult {
   /// docs/fusion/README.md for how it is obtained and what it does not contain.
   bool has_covariance = false;
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
+  /// Vision only and vision + altimeter, with the motion filter on: its velocity and angular rate.
+  FilteredMotion filtered_motion;
   /// What changed in the map during this frame (map_events.h): the feed of the terrain map.
   MapEvents map_events;
   StageTimesMs times;

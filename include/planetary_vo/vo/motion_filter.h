@@ -20,8 +20,9 @@
 /// A measurement the prediction cannot explain (normalised innovation squared over gate_nis: a jolt, the map
 /// moved by the optimiser, a bad frame) is taken as it is, so the filter never holds the output away from
 /// what the images say; the rates are kept, made as uncertain as two frames make them, for the next frames to
-/// correct. The caller resets the filter whenever
-/// the map is replaced (re-initialisation) or rescaled.
+/// correct. A second rejection in a row starts the rates again from the last two frames (wrong rates would
+/// otherwise never be corrected). The caller resets the filter whenever the map is replaced
+/// (re-initialisation) or rescaled.
 ///
 /// The filter holds only its own state; what it filters is the caller's choice (the Pipeline: the published
 /// pose of each frame tracked against the map, vision only; the map, the keyframes and the motion model of
@@ -68,6 +69,8 @@ struct FilteredPose {
   Eigen::Vector3d v_world = Eigen::Vector3d::Zero();      ///< velocity of the camera centre, map units / s
   Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
   Eigen::Vector3d a_world = Eigen::Vector3d::Zero();      ///< acceleration (constant_acceleration), units / s^2
+  Eigen::Matrix3d v_covariance = Eigen::Matrix3d::Zero();      ///< of v_world (after this update)
+  Eigen::Matrix3d omega_covariance = Eigen::Matrix3d::Zero();  ///< of omega_world
   bool filtered =
       false;           ///< false: the measurement itself (first two frames, or after a rejected prediction)
   bool gated = false;  ///< the prediction was rejected (normalised innovation squared over gate_nis)
@@ -105,6 +108,7 @@ class MotionFilter {
   /// The last measurement: the second one takes the rates from it, and its covariance sizes the rates' after
   /// a rejected prediction.
   PoseMeasurement last_;
+  bool last_gated_ = false;  ///< the last update rejected the prediction
 };
 
 }  // namespace planetary_vo

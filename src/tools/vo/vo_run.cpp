@@ -129,7 +129,8 @@ void usage(std::ostream& out) {
          "                    message (why a frame got no pose, why it became a keyframe)\n"
          "  --quiet           no progress and no summary\n"
          "  --output-velocity FILE  t vx vy vz [m/s, world] and the IMU bias estimates of every frame\n"
-         "                    with a velocity (camera + IMU mode)\n"
+         "                    with a velocity (camera + IMU mode); without the IMU, the motion filter's\n"
+         "                    velocity of the camera centre (m/s once metric) of every filtered frame\n"
          "  --initial-pose-only  with --initial-state-from-groundtruth: hand over the pose but not the\n"
          "                    velocity (the camera + IMU mode then aligns vision and IMU itself)\n"
          "  --initial-error-m DX,DY,DZ / --initial-error-deg RX,RY,RZ  error of the handed-over state:\n"
@@ -379,8 +380,12 @@ int main(int argc, char** argv) {
     if (!options.velocity_path.empty()) {
       velocity_out.open(options.velocity_path);
       if (!velocity_out) throw std::runtime_error("cannot write " + options.velocity_path);
-      velocity_out << "# timestamp[s] vx vy vz[m/s] (IMU body, world frame) bgx bgy bgz[rad/s] bax bay "
-                      "baz[m/s^2] (IMU bias estimates)\n";
+      if (config.imu.enabled)
+        velocity_out << "# timestamp[s] vx vy vz[m/s] (IMU body, world frame) bgx bgy bgz[rad/s] bax bay "
+                        "baz[m/s^2] (IMU bias estimates)\n";
+      else
+        velocity_out << "# timestamp[s] vx vy vz (camera centre, world frame; m/s once metric, else map units/s): "
+                        "the motion filter's velocity (motion_filter.enabled)\n";
     }
     const std::vector<AltimeterSample>& altimeter = dataset.altimeter();
     if (config.altimeter.enabled && altimeter.empty())
@@ -547,6 +552,10 @@ int main(int argc, char** argv) {
                      << r.imu_bias.gyro_radps.x() << ' ' << r.imu_bias.gyro_radps.y() << ' '
                      << r.imu_bias.gyro_radps.z() << ' ' << r.imu_bias.accel_mps2.x() << ' '
                      << r.imu_bias.accel_mps2.y() << ' ' << r.imu_bias.accel_mps2.z() << '\n';
+      else if (velocity_out.is_open() && r.filtered_motion.valid)
+        velocity_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::setprecision(9) << ' '
+                     << r.filtered_motion.v_world.x() << ' ' << r.filtered_motion.v_world.y() << ' '
+                     << r.filtered_motion.v_world.z() << '\n';
       if (r.inertial) ++inertial_frames;
       if (covariance_out.is_open() && r.has_covariance && r.state != TrackingState::kInitialising) {
         covariance_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::scientific

@@ -244,6 +244,34 @@ TEST(MotionFilter, AJumpOfTheMapIsTakenAtOnceAndFilteredAgainAfter) {
   EXPECT_LT((run.filtered[81].translation() - run.measured[81].translation()).norm(), 0.3);
 }
 
+TEST(MotionFilter, WrongRatesStartAgainAfterTwoRejectionsInARow) {
+  // The second frame is 10 m off (a bad frame at the start): the rates taken from the first two are 3.5x the
+  // speed, and every later frame disagrees with their prediction. Kept as they were, they would never be
+  // corrected (every frame rejected, the output never filtered: vision + altimeter on main_brake_down 512
+  // ideal, 11 s with the velocity 1500 m/s off). After two rejections in a row they start again from the
+  // last two frames, and the filter runs from the next frame on, at the true speed.
+  for (const bool constant_acceleration : {false, true}) {
+    SCOPED_TRACE(constant_acceleration ? "constant acceleration" : "constant velocity");
+    MotionFilterConfig config;
+    config.constant_acceleration = constant_acceleration;
+    const std::vector<Eigen::Vector3d> points = groundPoints();
+    std::mt19937 rng(4);
+    MotionFilter filter(config);
+    const Eigen::Vector3d v_true(40.0, 0.0, -8.0);
+    std::vector<FilteredPose> out;
+    for (int k = 0; k < 30; ++k) {
+      const double t = k / kRateHz;
+      const Eigen::Vector3d offset = k == 1 ? Eigen::Vector3d(10.0, 0.0, 0.0) : Eigen::Vector3d::Zero();
+      out.push_back(filter.update(
+          measureFrame(t, nadirPose(Eigen::Vector3d(-200.0, 0.0, 300.0) + v_true * t), points, 0.5, &rng, offset)));
+    }
+    EXPECT_TRUE(out[2].gated);
+    EXPECT_TRUE(out[3].gated);
+    for (size_t k = 4; k < out.size(); ++k) EXPECT_TRUE(out[k].filtered) << "frame " << k;
+    EXPECT_LT((out.back().v_world - v_true).norm(), 0.02 * v_true.norm());
+  }
+}
+
 TEST(MotionFilter, StartsFromTwoFramesAndRestartsAfterAGapOrAReset) {
   MotionFilterConfig config;
   config.max_gap_s = 0.5;
