@@ -198,6 +198,27 @@ TEST(Pipeline, TheMotionFilterSmoothsThePublishedPoseOnly) {
   for (size_t i = 0; i < plain.results.size(); ++i)
     differ += plain.results[i].T_world_cam.isApprox(filtered.results[i].T_world_cam, 1e-12) ? 0 : 1;
   EXPECT_GT(differ, 30);
+  // The filter's velocity (FrameResult::filtered_motion), brought into the true world by the trajectory's
+  // Sim(3) alignment: within 3 % of the true velocity on the frames it filters (a difference of two poses,
+  // the plain run's, is off by its one-frame error), and none without the filter.
+  const TrajectoryEvaluation eval =
+      evaluateTrajectory(filtered.ground_truth, estimated(filtered, true), EvaluationOptions());
+  std::vector<double> v_errors;
+  for (const FrameResult& r : filtered.results) {
+    if (!r.filtered_motion.valid) continue;
+    const double t = r.timestamp_s, h = 1e-4;
+    const Eigen::Vector3d v_true = (truePose(t + h).translation() - truePose(t - h).translation()) / (2.0 * h);
+    const Eigen::Vector3d v = eval.alignment.scale * eval.alignment.R_gt_est * r.filtered_motion.v_world;
+    v_errors.push_back(100.0 * (v - v_true).norm() / v_true.norm());
+    EXPECT_TRUE(r.filtered_motion.v_covariance.allFinite());
+    EXPECT_GT(r.filtered_motion.v_covariance.trace(), 0.0);
+  }
+  ASSERT_GT(v_errors.size(), 30u);
+  std::nth_element(v_errors.begin(), v_errors.begin() + v_errors.size() / 2, v_errors.end());
+  std::cout << "the filter's velocity: median error " << v_errors[v_errors.size() / 2] << " % over "
+            << v_errors.size() << " frames\n";
+  EXPECT_LT(v_errors[v_errors.size() / 2], 3.0);
+  for (const FrameResult& r : plain.results) EXPECT_FALSE(r.filtered_motion.valid);
 }
 
 /// Distance of each point from the least-squares plane through `plane_points`.
