@@ -97,7 +97,8 @@ endif()
 #     test_vo_fused      vo_fused: player (with the nav/initial_state handover) -> nodelet with
 #                        config/lunar_fused.yaml; nav/odometry against ground truth without alignment, at the
 #                        IMU rate; vo/status mode, metric, inertial, counters; vo_altimeter: the same with
-#                        config/lunar_altimeter.yaml (no IMU: image rate, the motion filter's velocity)
+#                        config/lunar_altimeter.yaml (no IMU: image rate, the motion filter's velocity);
+#                        vo_dead_reckoning: every image refused, nav/odometry from the IMU alone
 #     test_hazard_node   hazard_end_to_end: the AGNC graph (player -> VO -> hazard nodelet in one manager):
 #                        hazard/map against the true ground under the camera, occupancy, sites, status, a
 #                        malformed vo/map_events rejected
@@ -175,6 +176,9 @@ if(TARGET GTest::gtest)
               DEPENDENCIES test_vo_fused player ${vo_deps})
   # Vision + altimeter (no IMU): nav/odometry at the image rate, its velocity the motion filter's.
   add_rostest(test/ros/vo_altimeter.test ARGS dataset:=${VO_TEST_DATASET}
+              DEPENDENCIES test_vo_fused player ${vo_deps})
+  # Camera + IMU + altimeter through a dark descent: nav/odometry from the IMU alone, not confident.
+  add_rostest(test/ros/vo_dead_reckoning.test ARGS dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_vo_fused player ${vo_deps})
   add_rostest(test/ros/hazard_end_to_end.test ARGS dataset:=${VO_TEST_DATASET}
               DEPENDENCIES test_hazard_node player ${vo_deps})

@@ -205,8 +205,14 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     if (!started_) pending_state_.reset();  // consumed by the first image (applyInitialState)
     started_ = true;
     // Refused by the core's input check (e.g. a frozen frame): BAD_INPUT with the core's reason, nothing
-    // published; the pipeline coasts and tracks the next fresh image.
-    if (result.input_rejected) return reject(result.message, header);
+    // published; the pipeline coasts and tracks the next fresh image. Without a map yet, camera + IMU: the
+    // navigation still goes on, the IMU's dead reckoning from the handed-over state (not confident).
+    if (result.input_rejected) {
+      std::string untrusted;
+      if (result.inertial_only && checkOutputPose(result.T_world_cam, &untrusted))
+        publishNavAtImage(result, result.T_world_cam, header);
+      return reject(result.message, header);
+    }
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);
     // The last guard: a pose that is not finite, not rigid (a non-unit quaternion) or absurdly far is never
     // published; the frame is reported LOST with the reason, the outputs keep their last pose.
@@ -424,10 +430,12 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     const OdometrySigma sigma{params_.position_sigma_m, params_.orientation_sigma_rad,
                               params_.lost_sigma_factor, config_.pnp.min_inliers * 4};
     nav_covariance_ = navCovariance(r, sigma, params_.velocity_sigma_mps);
-    // Between images only from a state the pipeline vouches for: a pose estimate or IMU factors holding the
-    // map, never from the held pose of an initialising or lost chain.
-    nav_active_ = r.metric_scale && r.has_velocity && (r.hasPoseEstimate() || r.inertial);
-    if (!r.metric_scale) {
+    // Between images only from a state the pipeline vouches for: a pose estimate, IMU factors holding the
+    // map, or (no map yet) the IMU alone from the last inertial state; never from the held pose of a chain
+    // without one. Dead reckoning is metric but not confident: navCovariance() inflates it.
+    const bool metric = r.metric_scale || r.inertial_only;
+    nav_active_ = metric && r.has_velocity && (r.hasPoseEstimate() || r.inertial || r.inertial_only);
+    if (!metric) {
       have_nav_prev_ = false;
       return;
     }

@@ -336,6 +336,17 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   }
   result.processed = true;
   timestamp_s_ = timestamp_s;
+  // The handed-over state belongs to the first image, whether or not that image can be tracked (a first
+  // image refused as black still starts the IMU's dead reckoning).
+  if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_) {
+    carried_inertial_ = inertial_.bodyState(timestamp_s, T_world_cam_initial_, *v_initial_world_mps_, {});
+    Eigen::Matrix<double, 9, 1> sigma;
+    sigma << Eigen::Vector3d::Constant(config_.imu.initial_position_sigma_m),
+        Eigen::Vector3d::Constant(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0),
+        Eigen::Vector3d::Constant(config_.imu.initial_velocity_sigma_mps);
+    carried_covariance_ =
+        std::make_pair(*carried_inertial_, Eigen::Matrix<double, 9, 9>(sigma.cwiseAbs2().asDiagonal()));
+  }
   // A black, blank or saturated image has nothing to track: refused like a frozen frame (below), and not
   // given to the frozen-frame check, whose previous image stays the last usable one.
   const std::string exposure_problem =
@@ -353,16 +364,6 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
         << config_.pipeline.frozen_frame_max_mean_abs_diff << " gray levels, "
         << 100.0 * difference.moved_ratio << " % of the samples moved), not tracked";
     return refuseInput(why.str(), start, &result);
-  }
-  // The handed-over state belongs to the first image.
-  if (frame_index_ == 0 && inertialActive() && v_initial_world_mps_) {
-    carried_inertial_ = inertial_.bodyState(timestamp_s, T_world_cam_initial_, *v_initial_world_mps_, {});
-    Eigen::Matrix<double, 9, 1> sigma;
-    sigma << Eigen::Vector3d::Constant(config_.imu.initial_position_sigma_m),
-        Eigen::Vector3d::Constant(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0),
-        Eigen::Vector3d::Constant(config_.imu.initial_velocity_sigma_mps);
-    carried_covariance_ =
-        std::make_pair(*carried_inertial_, Eigen::Matrix<double, 9, 9>(sigma.cwiseAbs2().asDiagonal()));
   }
 
   // The adjustment submitted at the last keyframe runs while LK tracks this image (LK touches only the
@@ -414,6 +415,10 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
       stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
   holdPose(result, why);
   fillInertialOutput(result);
+  // Dead reckoning (no map yet): the state the navigation between images moves on (navStateAt()).
+  if (result->inertial_only && result->has_velocity)
+    last_nav_state_ =
+        inertial_.bodyState(timestamp_s_, result->T_world_cam, result->v_world_mps, result->imu_bias);
   T_world_cam_ = result->T_world_cam;
   state_ = result->state;
   result->metric_scale = metric_scale_;
@@ -1362,6 +1367,10 @@ void Pipeline::fillInertialOutput(FrameResult* result) const {
   }
   const auto& kfs = map_.keyframes();
   result->inertial = metric_scale_ && !kfs.empty() && kfs.back().has_inertial_state;
+  // Without a map, holdPose() took the pose from the same inertial state (predictPose()).
+  result->inertial_only = stage_ == PipelineStage::kInitialising &&
+                          result->state == TrackingState::kInitialising &&
+                          config_.pipeline.trajectory_mode == TrajectoryMode::kMap;
 }
 
 }  // namespace planetary_vo

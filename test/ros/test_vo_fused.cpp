@@ -12,6 +12,10 @@
 ///   ~expect_mode (string)              VoStatus.mode the configuration must give ("vision+imu+altimeter")
 ///   ~expect_inertial (bool, true)      the IMU holds the map and nav/odometry runs at the IMU rate; false:
 ///                                      no IMU (vision + altimeter), nav/odometry at the image rate
+///   ~expect_vision (bool, true)        false: every image is refused (a dark descent), nothing is tracked,
+///                                      and nav/odometry is the IMU's dead reckoning from the handover,
+///                                      at the IMU rate, not confident (pose sigma over ~min_dead_reckoning_sigma_m)
+///   ~min_dead_reckoning_sigma_m (double, 1)
 ///   ~max_position_error_m (double)     bound on every nav/odometry position error (m)
 ///   ~max_velocity_error_mps (double)   bound on every nav/odometry velocity error (m/s)
 ///   ~min_rate_fraction (double, 0.8)   nav/odometry stamps per second / IMU rate (image rate without the
@@ -52,6 +56,8 @@ class VoFusedTest : public ::testing::Test {
     ASSERT_TRUE(pnh.getParam("dataset", dataset_dir_));
     expect_mode_ = pnh.param<std::string>("expect_mode", VoStatus::MODE_VISION_IMU_ALTIMETER);
     expect_inertial_ = pnh.param("expect_inertial", true);
+    expect_vision_ = pnh.param("expect_vision", true);
+    min_dead_reckoning_sigma_m_ = pnh.param("min_dead_reckoning_sigma_m", 1.0);
     max_position_error_m_ = pnh.param("max_position_error_m", 5.0);
     max_velocity_error_mps_ = pnh.param("max_velocity_error_mps", 1.0);
     min_rate_fraction_ = pnh.param("min_rate_fraction", 0.8);
@@ -114,7 +120,8 @@ class VoFusedTest : public ::testing::Test {
   std::string dataset_dir_, expect_mode_, manager_, player_;
   double max_position_error_m_ = 5.0, max_velocity_error_mps_ = 1.0, min_rate_fraction_ = 0.8;
   double max_first_output_s_ = 2.0, timeout_s_ = 90.0;
-  bool expect_inertial_ = true;
+  bool expect_inertial_ = true, expect_vision_ = true;
+  double min_dead_reckoning_sigma_m_ = 1.0;
   std::unique_ptr<Dataset> dataset_;
   std::vector<GroundTruthState> states_;
   ros::Time epoch_;
@@ -148,10 +155,10 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
       last.num_altimeter_used, last.num_altimeter_no_range, last.num_altimeter_rejected,
       last.num_altimeter_msgs, last.message.c_str());
   EXPECT_EQ(last.mode, expect_mode_);
-  EXPECT_TRUE(last.metric) << "the trajectory is not metric";
-  EXPECT_NE(last.scale_source, "none");
-  EXPECT_EQ(last.inertial, expect_inertial_) << "IMU factors hold the map, or do not";
-  EXPECT_EQ(last.has_velocity, expect_inertial_);
+  EXPECT_EQ(last.metric, expect_vision_) << "the map is not metric, or there is one without vision";
+  if (expect_vision_) EXPECT_NE(last.scale_source, "none");
+  EXPECT_EQ(last.inertial, expect_inertial_ && expect_vision_) << "IMU factors hold the map, or do not";
+  if (expect_vision_) EXPECT_EQ(last.has_velocity, expect_inertial_);  // dark: BAD_INPUT statuses
   EXPECT_TRUE(last.initial_state_applied) << "the handover was not applied";
   EXPECT_EQ(last.num_imu_rejected, 0u);
   EXPECT_EQ(last.num_altimeter_rejected, 0u);
@@ -159,10 +166,16 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
   EXPECT_GT(last.num_altimeter_used, 0u);
   int tracked = 0;
   for (const VoStatus& s : statuses_) {
-    EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+    if (expect_vision_)
+      EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+    else  // every image refused, with the reason
+      EXPECT_EQ(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
     if (s.state == VoStatus::STATE_TRACKING || s.state == VoStatus::STATE_RECOVERED) ++tracked;
   }
-  EXPECT_GE(tracked, int(dataset_->size()) / 2);
+  if (expect_vision_)
+    EXPECT_GE(tracked, int(dataset_->size()) / 2);
+  else
+    EXPECT_EQ(tracked, 0) << "the dark images were tracked";
 
   // nav/odometry: present, metric, from early on, at the IMU rate.
   ASSERT_FALSE(nav_.empty()) << "no nav/odometry";
@@ -206,6 +219,9 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
       EXPECT_GT(m.pose.covariance[i], 0.0);
       EXPECT_TRUE(std::isfinite(m.pose.covariance[i]));
     }
+    // Dead reckoning is never published as confident.
+    if (!expect_vision_)
+      EXPECT_GT(m.pose.covariance[0], min_dead_reckoning_sigma_m_ * min_dead_reckoning_sigma_m_) << "at " << t;
     sum_dp2 += dp * dp;
     if (dp > max_dp) max_dp = dp, t_max_dp = t;
     end_dp = dp;

@@ -131,6 +131,11 @@ struct FrameResult {
   Eigen::Vector3d v_world_mps = Eigen::Vector3d::Zero();
   ImuBias imu_bias;
   bool inertial = false;
+  /// Camera + IMU, no map yet (initialising: before the first map, or after a map was lost): T_world_cam and
+  /// v_world_mps are the last inertial state (the handed-over one at first) moved on by the IMU alone. Metric
+  /// and in the world frame, but no vision in it: dead reckoning, not a pose estimate (hasPoseEstimate() is
+  /// false).
+  bool inertial_only = false;
   /// Camera + IMU mode (has_covariance): covariance of the navigation error [position (world, m), attitude
   /// (rotation vector of the world-frame error, rad), velocity (world, m/s)], 9x9; see
   /// docs/fusion/README.md for how it is obtained and what it does not contain.

@@ -113,6 +113,7 @@ void usage(std::ostream& out) {
          "  --dataset DIR     planetary_vo, KITTI odometry, EuRoC or TUM RGB-D folder\n"
          "  --config YAML     VO configuration (default: built-in defaults = config/default.yaml)\n"
          "  --output FILE     TUM trajectory (t tx ty tz qx qy qz qw, T_world_cam) of the processed frames\n"
+         "                    with a pose (camera + IMU: also the IMU's dead reckoning while there is no map)\n"
          "  --output-keyframes FILE  TUM trajectory of the keyframes, each with its last estimate: its pose\n"
          "                    when it left the bundle adjustment's window (the ones still in it at the end:\n"
          "                    their pose then). Not causal: a keyframe's pose is refined by adjustments\n"
@@ -545,8 +546,10 @@ int main(int argc, char** argv) {
                   << r.times.pose_ms << ' ' << r.times.tracking_ms << ' ' << r.times.detect_ms << ' '
                   << r.times.ba_ms << ' ' << r.times.optimiser_ms << ' '
                   << (r.message.empty() ? "-" : r.message) << '\n';
-      if (r.state != TrackingState::kInitialising) trajectory.push_back({r.timestamp_s, r.T_world_cam});
-      if (velocity_out.is_open() && r.has_velocity && r.state != TrackingState::kInitialising)
+      // Initialising frames have no pose, except the IMU's dead reckoning (camera + IMU, no map yet).
+      const bool has_pose = r.state != TrackingState::kInitialising || r.inertial_only;
+      if (has_pose) trajectory.push_back({r.timestamp_s, r.T_world_cam});
+      if (velocity_out.is_open() && r.has_velocity && has_pose)
         velocity_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::setprecision(9) << ' '
                      << r.v_world_mps.x() << ' ' << r.v_world_mps.y() << ' ' << r.v_world_mps.z() << ' '
                      << r.imu_bias.gyro_radps.x() << ' ' << r.imu_bias.gyro_radps.y() << ' '
@@ -557,7 +560,7 @@ int main(int argc, char** argv) {
                      << r.filtered_motion.v_world.x() << ' ' << r.filtered_motion.v_world.y() << ' '
                      << r.filtered_motion.v_world.z() << '\n';
       if (r.inertial) ++inertial_frames;
-      if (covariance_out.is_open() && r.has_covariance && r.state != TrackingState::kInitialising) {
+      if (covariance_out.is_open() && r.has_covariance && has_pose) {
         covariance_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::scientific
                        << std::setprecision(9);
         for (int a = 0; a < 6; ++a)
