@@ -100,8 +100,10 @@ std::vector<GroundTruthState> readGroundTruthStates(const std::string& path) {
 std::vector<StampedVelocity> readEstimateVelocities(const std::string& path) {
   std::vector<StampedVelocity> velocities;
   forEachRow(path, [&](int line_number, const std::vector<double>& v) {
-    // t vx vy vz, optionally followed by the six bias estimates vo_run --output-velocity writes.
-    if (v.size() != 10) requireCount(path, line_number, v, 4);
+    // t vx vy vz, optionally followed by the six bias estimates (vo_run --output-velocity, camera + IMU) or
+    // the velocity's 3x3 covariance (the motion filter's, without the IMU; not used here:
+    // scripts/velocity_nees.py scores it).
+    if (v.size() != 10 && v.size() != 13) requireCount(path, line_number, v, 4);
     requireIncreasing(path, line_number, !velocities.empty(),
                       velocities.empty() ? 0.0 : velocities.back().timestamp_s, v[0]);
     velocities.push_back({v[0], Eigen::Vector3d(v[1], v[2], v[3])});

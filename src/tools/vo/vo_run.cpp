@@ -385,8 +385,8 @@ int main(int argc, char** argv) {
         velocity_out << "# timestamp[s] vx vy vz[m/s] (IMU body, world frame) bgx bgy bgz[rad/s] bax bay "
                         "baz[m/s^2] (IMU bias estimates)\n";
       else
-        velocity_out << "# timestamp[s] vx vy vz (camera centre, world frame; m/s once metric, else map units/s): "
-                        "the motion filter's velocity (motion_filter.enabled)\n";
+        velocity_out << "# timestamp[s] vx vy vz (camera centre, world frame; m/s once metric, else map units/s) "
+                        "and its 3x3 covariance, row-major: the motion filter's velocity (motion_filter.enabled)\n";
     }
     const std::vector<AltimeterSample>& altimeter = dataset.altimeter();
     if (config.altimeter.enabled && altimeter.empty())
@@ -555,10 +555,14 @@ int main(int argc, char** argv) {
                      << r.imu_bias.gyro_radps.x() << ' ' << r.imu_bias.gyro_radps.y() << ' '
                      << r.imu_bias.gyro_radps.z() << ' ' << r.imu_bias.accel_mps2.x() << ' '
                      << r.imu_bias.accel_mps2.y() << ' ' << r.imu_bias.accel_mps2.z() << '\n';
-      else if (velocity_out.is_open() && r.filtered_motion.valid)
+      else if (velocity_out.is_open() && r.filtered_motion.valid) {
         velocity_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::setprecision(9) << ' '
                      << r.filtered_motion.v_world.x() << ' ' << r.filtered_motion.v_world.y() << ' '
-                     << r.filtered_motion.v_world.z() << '\n';
+                     << r.filtered_motion.v_world.z() << std::scientific;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) velocity_out << ' ' << r.filtered_motion.v_covariance(a, b);
+        velocity_out << std::defaultfloat << '\n';
+      }
       if (r.inertial) ++inertial_frames;
       if (covariance_out.is_open() && r.has_covariance && has_pose) {
         covariance_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::scientific

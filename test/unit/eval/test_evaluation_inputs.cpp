@@ -95,6 +95,13 @@ TEST(EstimateFiles, VelocitiesAndCovariances) {
   const auto velocities = [](const std::string& p) { readEstimateVelocities(p); };
   EXPECT_NE(errorOf(dir + "/v.txt", "1.0 0.5 -1\n", velocities).find("v.txt:1: expected 4 values, got 3"),
             std::string::npos);
+  // With the six IMU bias estimates, or the motion filter's 3x3 velocity covariance.
+  writeText(dir + "/v10.txt", "1.0 0.5 -1 2 0 0 0 0 0 0\n");
+  EXPECT_EQ(readEstimateVelocities(dir + "/v10.txt").size(), 1u);
+  writeText(dir + "/v13.txt", "1.0 0.5 -1 2 1 0 0 0 1 0 0 0 1\n");
+  EXPECT_EQ(readEstimateVelocities(dir + "/v13.txt")[0].velocity_world, Eigen::Vector3d(0.5, -1, 2));
+  EXPECT_NE(errorOf(dir + "/v.txt", "1.0 0.5 -1 2 1\n", velocities).find("expected 4 values, got 5"),
+            std::string::npos);
 
   // 3x3 and 6x6, row-major.
   writeText(dir + "/c3.txt", "2.0 4 1 0 1 9 0 0 0 16\n2.1 1 0 0 0 1 0 0 0 1\n");
