@@ -208,9 +208,13 @@ class VisualOdometryNodelet : public nodelet::Nodelet {
     // published; the pipeline coasts and tracks the next fresh image. Without a map yet, camera + IMU: the
     // navigation still goes on, the IMU's dead reckoning from the handed-over state (not confident).
     if (result.input_rejected) {
-      std::string untrusted;
-      if (result.inertial_only && checkOutputPose(result.T_world_cam, &untrusted))
-        publishNavAtImage(result, result.T_world_cam, header);
+      if (result.inertial_only) {
+        std::string untrusted;
+        if (checkOutputPose(result.T_world_cam, &untrusted))
+          publishNavAtImage(result, result.T_world_cam, header);
+        else
+          NODELET_ERROR_STREAM_THROTTLE(5, "dead-reckoned pose not published: " << untrusted);
+      }
       return reject(result.message, header);
     }
     if (!note.empty()) result.message = note + (result.message.empty() ? "" : "; " + result.message);

@@ -121,6 +121,17 @@ void MotionFilter::startFromTwo(const PoseMeasurement& m, double dt) {
   }
 }
 
+FilteredMotion MotionFilter::motion() const {
+  FilteredMotion out;
+  out.valid = true;
+  out.v_world = v_world_;
+  out.v_covariance = P_.block<3, 3>(6, 6);
+  out.omega_world = omega_world_;
+  out.omega_covariance = P_.block<3, 3>(9, 9);
+  out.a_world = a_world_;
+  return out;
+}
+
 FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   if (!m.valid) throw std::invalid_argument("MotionFilter::update: invalid measurement");
   FilteredPose out;
@@ -132,8 +143,6 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
     if (num_updates_ == 1) startFromTwo(m, dt);
     ++num_updates_;
     last_ = m;
-    out.v_world = v_world_;
-    out.omega_world = omega_world_;
     return out;
   }
 
@@ -182,11 +191,7 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
     last_gated_ = true;
     last_ = m;
     out.gated = true;
-    out.v_world = v_world_;
-    out.omega_world = omega_world_;
-    out.a_world = a_world_;
-    out.v_covariance = P_.block<3, 3>(6, 6);
-    out.omega_covariance = P_.block<3, 3>(9, 9);
+    out.motion = motion();
     return out;
   }
   last_ = m;
@@ -209,11 +214,7 @@ FilteredPose MotionFilter::update(const PoseMeasurement& m) {
   out.T_world_cam = Pose::Identity();
   out.T_world_cam.linear() = R_world_cam_;
   out.T_world_cam.translation() = c_world_;
-  out.v_world = v_world_;
-  out.omega_world = omega_world_;
-  out.a_world = a_world_;
-  out.v_covariance = P_.block<3, 3>(6, 6);
-  out.omega_covariance = P_.block<3, 3>(9, 9);
+  out.motion = motion();
   out.filtered = true;
   return out;
 }

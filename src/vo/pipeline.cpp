@@ -395,11 +395,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   result.scale_confidence = scale_confidence_;
   result.metric_scale = metric_scale_;
   result.scale_source = scale_source_;
-  if (result.has_velocity)
-    last_nav_state_ =
-        inertial_.bodyState(timestamp_s, result.T_world_cam, result.v_world_mps, result.imu_bias);
-  else
-    last_nav_state_.reset();
+  keepNavState(result);
   result.num_map_points = static_cast<int>(map_.numPoints());
   result.num_keyframes = static_cast<int>(map_.numKeyframes());
   result.map_events = map_.takeEvents();
@@ -415,10 +411,7 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
       stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
   holdPose(result, why);
   fillInertialOutput(result);
-  // Dead reckoning (no map yet): the state the navigation between images moves on (navStateAt()).
-  if (result->inertial_only && result->has_velocity)
-    last_nav_state_ =
-        inertial_.bodyState(timestamp_s_, result->T_world_cam, result->v_world_mps, result->imu_bias);
+  keepNavState(*result);  // a refused image too: without a map yet, the IMU's dead reckoning goes on from it
   T_world_cam_ = result->T_world_cam;
   state_ = result->state;
   result->metric_scale = metric_scale_;
@@ -769,14 +762,7 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
   }
   const FilteredPose filtered = motion_filter_.update(m);
   result->T_world_cam = filtered.T_world_cam;
-  FilteredMotion& motion = result->filtered_motion;
-  motion.valid = filtered.filtered || filtered.gated;
-  if (motion.valid) {
-    motion.v_world = filtered.v_world;
-    motion.v_covariance = filtered.v_covariance;
-    motion.omega_world = filtered.omega_world;
-    motion.omega_covariance = filtered.omega_covariance;
-  }
+  result->filtered_motion = filtered.motion;
 }
 
 void Pipeline::startRecovery() {
@@ -1209,6 +1195,14 @@ void Pipeline::tryInertialAlignment(FrameResult* result) {
                      std::to_string(100.0 * a.scale_sigma) + " %), gyro bias " +
                      std::to_string(a.gyro_bias_radps.norm()) + " rad/s" +
                      (world_aligned ? "" : ", world turned gravity-aligned");
+}
+
+void Pipeline::keepNavState(const FrameResult& result) {
+  if (result.has_velocity)
+    last_nav_state_ =
+        inertial_.bodyState(timestamp_s_, result.T_world_cam, result.v_world_mps, result.imu_bias);
+  else
+    last_nav_state_.reset();
 }
 
 std::optional<NavState> Pipeline::navStateAt(double t_s) const {

@@ -156,26 +156,34 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
       last.num_altimeter_msgs, last.message.c_str());
   EXPECT_EQ(last.mode, expect_mode_);
   EXPECT_EQ(last.metric, expect_vision_) << "the map is not metric, or there is one without vision";
-  if (expect_vision_) EXPECT_NE(last.scale_source, "none");
+  if (expect_vision_) {
+    EXPECT_NE(last.scale_source, "none");
+  }
   EXPECT_EQ(last.inertial, expect_inertial_ && expect_vision_) << "IMU factors hold the map, or do not";
-  if (expect_vision_) EXPECT_EQ(last.has_velocity, expect_inertial_);  // dark: BAD_INPUT statuses
+  if (expect_vision_) {  // dark: BAD_INPUT statuses, which carry no velocity
+    EXPECT_EQ(last.has_velocity, expect_inertial_);
+  }
   EXPECT_TRUE(last.initial_state_applied) << "the handover was not applied";
   EXPECT_EQ(last.num_imu_rejected, 0u);
   EXPECT_EQ(last.num_altimeter_rejected, 0u);
-  if (expect_inertial_) EXPECT_GT(last.num_imu_used, last.num_imu_msgs * 9 / 10);
+  if (expect_inertial_) {
+    EXPECT_GT(last.num_imu_used, last.num_imu_msgs * 9 / 10);
+  }
   EXPECT_GT(last.num_altimeter_used, 0u);
   int tracked = 0;
   for (const VoStatus& s : statuses_) {
-    if (expect_vision_)
+    if (expect_vision_) {
       EXPECT_NE(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
-    else  // every image refused, with the reason
+    } else {  // every image refused, with the reason
       EXPECT_EQ(s.state, VoStatus::STATE_BAD_INPUT) << s.message;
+    }
     if (s.state == VoStatus::STATE_TRACKING || s.state == VoStatus::STATE_RECOVERED) ++tracked;
   }
-  if (expect_vision_)
+  if (expect_vision_) {
     EXPECT_GE(tracked, int(dataset_->size()) / 2);
-  else
+  } else {
     EXPECT_EQ(tracked, 0) << "the dark images were tracked";
+  }
 
   // nav/odometry: present, metric, from early on, at the IMU rate.
   ASSERT_FALSE(nav_.empty()) << "no nav/odometry";
@@ -220,8 +228,9 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
       EXPECT_TRUE(std::isfinite(m.pose.covariance[i]));
     }
     // Dead reckoning is never published as confident.
-    if (!expect_vision_)
+    if (!expect_vision_) {
       EXPECT_GT(m.pose.covariance[0], min_dead_reckoning_sigma_m_ * min_dead_reckoning_sigma_m_) << "at " << t;
+    }
     sum_dp2 += dp * dp;
     if (dp > max_dp) max_dp = dp, t_max_dp = t;
     end_dp = dp;

@@ -84,6 +84,7 @@ struct FilteredMotion {
   Eigen::Matrix3d v_covariance = Eigen::Matrix3d::Zero();
   Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
   Eigen::Matrix3d omega_covariance = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d a_world = Eigen::Vector3d::Zero();  ///< acceleration (constant_acceleration), units/s^2
 };
 
 /// Per-frame output of Pipeline::process().

@@ -34,6 +34,7 @@
 
 #include "planetary_vo/geometry/pose.h"
 #include "planetary_vo/vo/config.h"
+#include "planetary_vo/vo/frame_result.h"  // FilteredMotion
 
 namespace planetary_vo {
 
@@ -66,11 +67,8 @@ PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
 /// What MotionFilter::update() gives back.
 struct FilteredPose {
   Pose T_world_cam = Pose::Identity();
-  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();      ///< velocity of the camera centre, map units / s
-  Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
-  Eigen::Vector3d a_world = Eigen::Vector3d::Zero();      ///< acceleration (constant_acceleration), units / s^2
-  Eigen::Matrix3d v_covariance = Eigen::Matrix3d::Zero();      ///< of v_world (after this update)
-  Eigen::Matrix3d omega_covariance = Eigen::Matrix3d::Zero();  ///< of omega_world
+  /// The rates after this update, valid when filtered or gated (not over the first two frames).
+  FilteredMotion motion;
   bool filtered =
       false;           ///< false: the measurement itself (first two frames, or after a rejected prediction)
   bool gated = false;  ///< the prediction was rejected (normalised innovation squared over gate_nis)
@@ -95,6 +93,8 @@ class MotionFilter {
   void restartPose(const PoseMeasurement& m);
   /// Position and attitude from `m`, the rates from last_ to `m` (dt apart).
   void startFromTwo(const PoseMeasurement& m, double dt);
+  /// The current rates and their covariances, valid.
+  FilteredMotion motion() const;
 
   MotionFilterConfig config_;
   int num_updates_ = 0;  ///< since the last restart

@@ -244,6 +244,9 @@ class Pipeline {
   /// Adds the window's inertial states, IMU factors and bias prior to `problem`.
   void addInertialFactors(BaProblem* problem) const;
   /// Velocity and biases of this frame (camera + IMU mode).
+  /// The inertial state of a processed (or refused) frame that navStateAt() moves on: the frame's pose and
+  /// velocity when it has a velocity, else none.
+  void keepNavState(const FrameResult& result);
   void fillInertialOutput(FrameResult* result) const;
   /// The published pose of a frame tracked against the map through the motion filter (vision only:
   /// motion_filter.h); the filter restarts on a new or rescaled map.

@@ -112,39 +112,63 @@ TEST(Initializer, NadirPriorSettlesTheHomographyAmbiguityOfADescent) {
   }
 }
 
-/// Flat ground seen obliquely, as by the 30-degree-forward lander camera: camera 1 at the origin looking
-/// along +z with the ground's normal tilted `tilt_deg` from the optical axis (about x), 1500 units away along
-/// the normal; camera 2 moved `baseline` along the ground (downrange: the in-plane direction seen at the top
-/// of the image) and pitched 0.5 deg. Points are where random pixels of image 1 meet the ground, with
-/// `noise_px`.
-SyntheticTwoViewScene obliqueGround(double tilt_deg, double baseline, double noise_px, uint32_t seed) {
+/// Ground seen obliquely: camera 1 at the origin looking along +z, the ground's normal (towards it) tilted
+/// `tilt_deg` from the optical axis about x, `distance` away along the normal, with relief uniform in
+/// +-relief/2 along it; camera 2 moved `baseline` along `direction_c1` (normalised) and pitched `pitch_deg`.
+/// `num_points` points where random pixels of image 1 meet the ground (and stay in image 2), with `noise_px`.
+struct GroundSpec {
+  double tilt_deg = 30.0;
+  double distance = 1500.0;
+  double relief = 0.0;
+  double baseline = 150.0;
+  Eigen::Vector3d direction_c1 = Eigen::Vector3d::UnitY();
+  double pitch_deg = 0.5;
+  size_t num_points = 400;
+  double noise_px = 0.3;
+  uint32_t seed = 5;
+};
+
+SyntheticTwoViewScene groundScene(const GroundSpec& g) {
   SyntheticTwoViewScene s;
   s.camera = thesisCamera();
-  const double tilt = tilt_deg * M_PI / 180.0;
-  const Eigen::Vector3d normal(0.0, std::sin(tilt), std::cos(tilt));  // from camera 1 towards the ground
-  const double distance = 1500.0;
-  const Eigen::Vector3d downrange = Eigen::Vector3d(0.0, -std::cos(tilt), std::sin(tilt));  // in the plane
-  const Eigen::Vector3d c2_in_c1 = baseline * downrange;
+  const double tilt = g.tilt_deg * M_PI / 180.0;
+  const Eigen::Vector3d normal(0.0, std::sin(tilt), std::cos(tilt));
+  const Eigen::Vector3d c2_in_c1 = g.baseline * g.direction_c1.normalized();
   const Eigen::Matrix3d R_c2_c1 =
-      Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      Eigen::AngleAxisd(g.pitch_deg * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
   s.T_c2_c1 = Pose::Identity();
   s.T_c2_c1.linear() = R_c2_c1;
   s.T_c2_c1.translation() = -R_c2_c1 * c2_in_c1;
-  cv::RNG rng(seed);
+  cv::RNG rng(g.seed);
   const Eigen::Matrix3d K = s.camera.K();
-  while (s.points_c1.size() < 400) {
+  while (s.points_c1.size() < g.num_points) {
     const Eigen::Vector3d ray =
         K.inverse() * Eigen::Vector3d(rng.uniform(0.0, 1024.0), rng.uniform(0.0, 1024.0), 1.0);
-    const Eigen::Vector3d p = ray * (distance / normal.dot(ray));
+    const double d = g.relief > 0.0 ? g.distance + rng.uniform(-0.5, 0.5) * g.relief : g.distance;
+    const Eigen::Vector3d p = ray * (d / normal.dot(ray));
     const Eigen::Vector3d p2 = s.T_c2_c1 * p;
     const Eigen::Vector3d q1 = K * p, q2 = K * p2;
     const cv::Point2d px1(q1.x() / q1.z(), q1.y() / q1.z()), px2(q2.x() / q2.z(), q2.y() / q2.z());
     if (px2.x < 0 || px2.y < 0 || px2.x > 1024 || px2.y > 1024) continue;
     s.points_c1.push_back(p);
-    s.px1.emplace_back(px1.x + rng.gaussian(noise_px), px1.y + rng.gaussian(noise_px));
-    s.px2.emplace_back(px2.x + rng.gaussian(noise_px), px2.y + rng.gaussian(noise_px));
+    s.px1.emplace_back(px1.x + rng.gaussian(g.noise_px), px1.y + rng.gaussian(g.noise_px));
+    s.px2.emplace_back(px2.x + rng.gaussian(g.noise_px), px2.y + rng.gaussian(g.noise_px));
   }
   return s;
+}
+
+/// Flat ground seen obliquely, as by the 30-degree-forward lander camera: 1500 units away, camera 2 moved
+/// `baseline` along the ground (downrange: the in-plane direction seen at the top of the image) and pitched
+/// 0.5 deg.
+SyntheticTwoViewScene obliqueGround(double tilt_deg, double baseline, double noise_px, uint32_t seed) {
+  const double tilt = tilt_deg * M_PI / 180.0;
+  GroundSpec g;
+  g.tilt_deg = tilt_deg;
+  g.baseline = baseline;
+  g.direction_c1 = Eigen::Vector3d(0.0, -std::cos(tilt), std::sin(tilt));
+  g.noise_px = noise_px;
+  g.seed = seed;
+  return groundScene(g);
 }
 
 TEST(Initializer, TriangulationSettlesTheHomographyAmbiguityWithoutAPrior) {
@@ -261,37 +285,21 @@ TEST(Initializer, ReliefOffThePlaneSettlesTheTwinThatTheCountsCannot) {
 }
 
 /// Closing in on ground seen 45 deg obliquely, as the nozzle-pointing camera does in the last 15 s of
-/// approach_nozzle: the ground's normal (towards it) is (0, sin 45, cos 45) in camera 1, `distance` away along
-/// it, with relief uniform in +-relief/2 along the normal; camera 2 moved `baseline` along (0, -0.45, 0.89) in
-/// camera 1 (forward and up in the image: descending 18 deg to the ground, as on hazard campaign seed 15
-/// run_002) and pitched 0.12 deg. Points are where random pixels of image 1 meet the ground, with `noise_px`.
+/// approach_nozzle: camera 2 moved `baseline` along (0, -0.45, 0.89) in camera 1 (forward and up in the image:
+/// descending 18 deg to the ground, as on hazard campaign seed 15 run_002) and pitched 0.12 deg; 300 points.
 SyntheticTwoViewScene closingOnObliqueGround(double distance, double relief, double baseline, double noise_px,
                                              uint32_t seed) {
-  SyntheticTwoViewScene s;
-  s.camera = thesisCamera();
-  const Eigen::Vector3d normal = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();
-  const Eigen::Vector3d c2_in_c1 = baseline * Eigen::Vector3d(0.0, -0.45, 0.89).normalized();
-  const Eigen::Matrix3d R_c2_c1 =
-      Eigen::AngleAxisd(0.12 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  s.T_c2_c1 = Pose::Identity();
-  s.T_c2_c1.linear() = R_c2_c1;
-  s.T_c2_c1.translation() = -R_c2_c1 * c2_in_c1;
-  cv::RNG rng(seed);
-  const Eigen::Matrix3d K = s.camera.K();
-  while (s.points_c1.size() < 300) {
-    const Eigen::Vector3d ray =
-        K.inverse() * Eigen::Vector3d(rng.uniform(0.0, 1024.0), rng.uniform(0.0, 1024.0), 1.0);
-    const double d = distance + rng.uniform(-0.5, 0.5) * relief;
-    const Eigen::Vector3d p = ray * (d / normal.dot(ray));
-    const Eigen::Vector3d p2 = s.T_c2_c1 * p;
-    const Eigen::Vector3d q1 = K * p, q2 = K * p2;
-    const cv::Point2d px1(q1.x() / q1.z(), q1.y() / q1.z()), px2(q2.x() / q2.z(), q2.y() / q2.z());
-    if (px2.x < 0 || px2.y < 0 || px2.x > 1024 || px2.y > 1024) continue;
-    s.points_c1.push_back(p);
-    s.px1.emplace_back(px1.x + rng.gaussian(noise_px), px1.y + rng.gaussian(noise_px));
-    s.px2.emplace_back(px2.x + rng.gaussian(noise_px), px2.y + rng.gaussian(noise_px));
-  }
-  return s;
+  GroundSpec g;
+  g.tilt_deg = 45.0;
+  g.distance = distance;
+  g.relief = relief;
+  g.baseline = baseline;
+  g.direction_c1 = Eigen::Vector3d(0.0, -0.45, 0.89);
+  g.pitch_deg = 0.12;
+  g.num_points = 300;
+  g.noise_px = noise_px;
+  g.seed = seed;
+  return groundScene(g);
 }
 
 TEST(Initializer, TheCostOverrulesACountThatFavoursTheTwinOfAForwardMotion) {

@@ -167,7 +167,7 @@ TEST(MotionFilter, HalvesTheOneFrameErrorOfASteadyDescentAndKeepsItsPath) {
   EXPECT_LT(median(filtered_err), median(raw_err));
   // The velocity is the true one within 2 % (the frames' differences: about 5 %).
   const Eigen::Vector3d v_true(40.0, 0.0, -8.0);
-  EXPECT_LT((run.outputs.back().v_world - v_true).norm(), 0.02 * v_true.norm());
+  EXPECT_LT((run.outputs.back().motion.v_world - v_true).norm(), 0.02 * v_true.norm());
   for (const FilteredPose& f : run.outputs) EXPECT_FALSE(f.gated);
   }
 }
@@ -217,14 +217,14 @@ TEST(MotionFilter, TheAccelerationStateFollowsASteadyBrakingWithoutLag) {
   const FlightRun run = fly(config, 4.0, 0.5);
   const double filtered = medianPositionError(run, run.filtered), scatter = medianPositionError(run, run.measured);
   std::cout << "braking at 4 m/s^2, acceleration state: median position error frames " << scatter
-            << " m, filtered " << filtered << " m; acceleration " << run.outputs.back().a_world.transpose()
+            << " m, filtered " << filtered << " m; acceleration " << run.outputs.back().motion.a_world.transpose()
             << "\n";
   EXPECT_LT(filtered, scatter);
   EXPECT_LT(oneFrameErrorPercent(run.truth, run.filtered, 10),
             0.5 * oneFrameErrorPercent(run.truth, run.measured, 10));
   for (const FilteredPose& f : run.outputs) EXPECT_FALSE(f.gated);
   const Eigen::Vector3d a_true = -4.0 * Eigen::Vector3d(40.0, 0.0, -8.0).normalized();
-  EXPECT_LT((run.outputs.back().a_world - a_true).norm(), 0.1 * a_true.norm());
+  EXPECT_LT((run.outputs.back().motion.a_world - a_true).norm(), 0.1 * a_true.norm());
 }
 
 TEST(MotionFilter, AJumpOfTheMapIsTakenAtOnceAndFilteredAgainAfter) {
@@ -268,7 +268,7 @@ TEST(MotionFilter, WrongRatesStartAgainAfterTwoRejectionsInARow) {
     EXPECT_TRUE(out[2].gated);
     EXPECT_TRUE(out[3].gated);
     for (size_t k = 4; k < out.size(); ++k) EXPECT_TRUE(out[k].filtered) << "frame " << k;
-    EXPECT_LT((out.back().v_world - v_true).norm(), 0.02 * v_true.norm());
+    EXPECT_LT((out.back().motion.v_world - v_true).norm(), 0.02 * v_true.norm());
   }
 }
 
