@@ -185,6 +185,7 @@ void motionFilterFields(C& c, V& v) {
   v("min_pixel_sigma_px", c.min_pixel_sigma_px, 1e-4, 100.0);
   v("gate_nis", c.gate_nis, 1.0, 1e9);
   v("max_gap_s", c.max_gap_s, 1e-3, 1e3);
+  v("move_with_map", c.move_with_map);
 }
 
 template <class C, class V>

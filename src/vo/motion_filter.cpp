@@ -121,6 +121,26 @@ void MotionFilter::startFromTwo(const PoseMeasurement& m, double dt) {
   }
 }
 
+void MotionFilter::moveWithMap(const Pose& T_new_old) {
+  if (num_updates_ == 0) return;
+  const Eigen::Matrix3d R = T_new_old.linear();
+  c_world_ = T_new_old * c_world_;
+  R_world_cam_ = R * R_world_cam_;
+  v_world_ = R * v_world_;
+  omega_world_ = R * omega_world_;
+  a_world_ = R * a_world_;
+  // Every error state is a world-frame vector (the attitude error too: R_true = Exp(dtheta) R_est).
+  Matrix15d G = Matrix15d::Zero();
+  for (int b = 0; b < 5; ++b) G.block<3, 3>(3 * b, 3 * b) = R;
+  P_ = G * P_ * G.transpose();
+  last_.T_world_cam = T_new_old * last_.T_world_cam;
+  Matrix6d G6 = Matrix6d::Zero();
+  G6.topLeftCorner<3, 3>() = R;
+  G6.bottomRightCorner<3, 3>() = R;
+  last_.covariance = G6 * last_.covariance * G6.transpose();
+  last_.information = G6 * last_.information * G6.transpose();
+}
+
 FilteredMotion MotionFilter::motion() const {
   FilteredMotion out;
   out.valid = true;

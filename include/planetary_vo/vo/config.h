@@ -213,6 +213,9 @@ struct MotionFilterConfig {
   double gate_nis = 22.5;
   /// A gap longer than this between two filtered frames restarts the filter, s.
   double max_gap_s = 1.0;
+  /// When the optimiser moves the map, the filter's state moves with the newest keyframe (else the next
+  /// frame's pose, taken against the moved map, reads the move as motion).
+  bool move_with_map = false;
 };
 
 enum class RobustLoss { kNone, kHuber, kCauchy };

@@ -85,6 +85,11 @@ class MotionFilter {
   /// Gaps longer than max_gap_s restart the filter from `m`.
   FilteredPose update(const PoseMeasurement& m);
 
+  /// The map the measurements are taken against moved rigidly by `T_new_old` (the optimiser adjusted it): the
+  /// state moves with it, so that the next measurement, taken against the moved map, does not read the move
+  /// as motion. Positions, attitudes and the rates are transformed; the covariance is rotated.
+  void moveWithMap(const Pose& T_new_old);
+
   /// Two measurements since the last restart: the next one is filtered.
   bool running() const { return num_updates_ >= 2; }
 
