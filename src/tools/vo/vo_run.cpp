@@ -131,7 +131,8 @@ void usage(std::ostream& out) {
          "  --quiet           no progress and no summary\n"
          "  --output-velocity FILE  t vx vy vz [m/s, world] and the IMU bias estimates of every frame\n"
          "                    with a velocity (camera + IMU mode); without the IMU, the motion filter's\n"
-         "                    velocity of the camera centre (m/s once metric) of every filtered frame\n"
+         "                    velocity of the camera centre of every filtered frame (with the\n"
+         "                    altimeter: m/s, the frames of a metric map only; vision only: map units/s)\n"
          "  --initial-pose-only  with --initial-state-from-groundtruth: hand over the pose but not the\n"
          "                    velocity (the camera + IMU mode then aligns vision and IMU itself)\n"
          "  --initial-error-m DX,DY,DZ / --initial-error-deg RX,RY,RZ  error of the handed-over state:\n"
@@ -385,8 +386,11 @@ int main(int argc, char** argv) {
         velocity_out << "# timestamp[s] vx vy vz[m/s] (IMU body, world frame) bgx bgy bgz[rad/s] bax bay "
                         "baz[m/s^2] (IMU bias estimates)\n";
       else
-        velocity_out << "# timestamp[s] vx vy vz (camera centre, world frame; m/s once metric, else map units/s) "
-                        "and its 3x3 covariance, row-major: the motion filter's velocity (motion_filter.enabled)\n";
+        velocity_out << "# timestamp[s] vx vy vz (camera centre, world frame; "
+                     << (config.altimeter.enabled ? "m/s, the frames of a metric map only"
+                                                  : "map units/s: vision only has no metric scale")
+                     << ") and its 3x3 covariance, row-major: the motion filter's velocity "
+                        "(motion_filter.enabled)\n";
     }
     const std::vector<AltimeterSample>& altimeter = dataset.altimeter();
     if (config.altimeter.enabled && altimeter.empty())
@@ -555,7 +559,8 @@ int main(int argc, char** argv) {
                      << r.imu_bias.gyro_radps.x() << ' ' << r.imu_bias.gyro_radps.y() << ' '
                      << r.imu_bias.gyro_radps.z() << ' ' << r.imu_bias.accel_mps2.x() << ' '
                      << r.imu_bias.accel_mps2.y() << ' ' << r.imu_bias.accel_mps2.z() << '\n';
-      else if (velocity_out.is_open() && r.filtered_motion.valid) {
+      else if (velocity_out.is_open() && r.filtered_motion.valid &&
+               (r.metric_scale || !config.altimeter.enabled)) {  // one unit per file
         velocity_out << std::fixed << std::setprecision(6) << r.timestamp_s << std::setprecision(9) << ' '
                      << r.filtered_motion.v_world.x() << ' ' << r.filtered_motion.v_world.y() << ' '
                      << r.filtered_motion.v_world.z() << std::scientific;

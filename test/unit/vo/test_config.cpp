@@ -131,7 +131,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.motion_filter.min_pixel_sigma_px, 0.2);
   EXPECT_DOUBLE_EQ(c.motion_filter.gate_nis, 40.0);
   EXPECT_DOUBLE_EQ(c.motion_filter.max_gap_s, 0.5);
-  EXPECT_TRUE(c.motion_filter.move_with_map);
+  EXPECT_FALSE(c.motion_filter.move_with_map);
 
   EXPECT_FALSE(c.bundle_adjustment.enabled);
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);

@@ -210,7 +210,7 @@ TEST(Pipeline, TheMotionFilterSmoothsThePublishedPoseOnly) {
   const auto [filtered_rpe, filtered_ate] = oneFrameErrorAndAte(filtered);
   std::cout << "one-frame error " << plain_rpe << " -> " << filtered_rpe << " %, Sim(3) ATE " << plain_ate
             << " -> " << filtered_ate << " %\n";
-  EXPECT_LT(filtered_rpe, 0.8 * plain_rpe);
+  EXPECT_LT(filtered_rpe, 0.85 * plain_rpe);
   EXPECT_LT(filtered_ate, 1.1 * plain_ate);
   ASSERT_EQ(plain.map_points.size(), filtered.map_points.size());
   const auto& a = plain.map_points.back();
@@ -227,14 +227,14 @@ TEST(Pipeline, TheMotionFilterSmoothsThePublishedPoseOnly) {
   const double v_error = medianVelocityErrorPercent(filtered);
   std::cout << "the filter's velocity: median error " << v_error << " %\n";
   EXPECT_LT(v_error, 3.0);
-  // The filter follows the map when the bundle adjustment moves it (motion_filter.move_with_map): its velocity
-  // is closer to the truth than when it reads the moves as motion.
-  config.motion_filter.move_with_map = true;
-  const SequenceRun moved = runSequence(config, 60);
-  const double v_error_moved = medianVelocityErrorPercent(moved);
-  std::cout << "... moved with the map: velocity " << v_error_moved << " %, one-frame error "
-            << oneFrameErrorAndAte(moved).first << " %\n";
-  EXPECT_LT(v_error_moved, 0.9 * v_error);
+  // The filter follows the map when the bundle adjustment moves it (motion_filter.move_with_map, the default):
+  // its velocity is closer to the truth than when it reads the moves as motion.
+  config.motion_filter.move_with_map = false;
+  const SequenceRun unmoved = runSequence(config, 60);
+  const double v_error_unmoved = medianVelocityErrorPercent(unmoved);
+  std::cout << "... the map's moves read as motion: velocity " << v_error_unmoved << " %, one-frame error "
+            << oneFrameErrorAndAte(unmoved).first << " %\n";
+  EXPECT_LT(v_error, 0.9 * v_error_unmoved);
   for (const FrameResult& r : plain.results) EXPECT_FALSE(r.filtered_motion.valid);
 }
 
