@@ -986,13 +986,10 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   const BaSummary summary = adjustBundle(&problem, adjustmentConfig(*result));
   result->times.optimiser_ms = summary.solve_cpu_ms;
   if (summary.converged) {
-    // This frame is the newest keyframe: the frames before it were posed against the one before.
-    const auto& kfs = map_.keyframes();
-    const bool has_reference = kfs.size() >= 2;
-    const uint64_t reference_id = has_reference ? kfs[kfs.size() - 2].id : 0;
-    const Pose T_world_reference = has_reference ? kfs[kfs.size() - 2].T_world_cam : Pose::Identity();
+    const uint64_t newest_id = map_.keyframes().back().id;  // this frame
+    const Pose T_world_newest = map_.keyframes().back().T_world_cam;
     const int removed = map_.applyBaResult(problem, summary.outliers);
-    if (has_reference) moveFilterWithMap(reference_id, T_world_reference);
+    moveFilterWithMap(newest_id, T_world_newest);
     // The current frame is the newest keyframe: report its adjusted pose.
     result->T_world_cam = map_.keyframes().back().T_world_cam;
     last_good_.T_world_cam = result->T_world_cam;
@@ -1003,9 +1000,9 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
 }
 
 void Pipeline::moveFilterWithMap(uint64_t keyframe_id, const Pose& T_world_keyframe_before) {
-  // The filter of the published pose moves by the move of the keyframe the last frames were posed against
-  // (mostly against its points), so that the next frame, posed against the moved map, does not read the move
-  // as motion (docs/visual_core.md step 17).
+  // The filter of the published pose moves by the move of the newest keyframe (the frames are posed mostly
+  // against its points; with the optimiser inline it is this frame), so that the frame posed against the
+  // moved map does not read the move as motion (docs/visual_core.md step 17).
   if (!config_.motion_filter.move_with_map) return;
   if (const Keyframe* after = map_.keyframe(keyframe_id))
     motion_filter_.moveWithMap(after->T_world_cam * T_world_keyframe_before.inverse());
@@ -1111,10 +1108,10 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
   }
   if (finished) result->times.optimiser_ms = finished->second.solve_cpu_ms;
   if (!finished || !finished->second.converged) return;
-  const uint64_t reference_id = map_.keyframes().back().id;
-  const Pose T_world_reference = map_.keyframes().back().T_world_cam;
+  const uint64_t newest_id = map_.keyframes().back().id;
+  const Pose T_world_newest = map_.keyframes().back().T_world_cam;
   map_.applyBaResult(finished->first, finished->second.outliers);
-  moveFilterWithMap(reference_id, T_world_reference);  // the next frame is posed against the moved map
+  moveFilterWithMap(newest_id, T_world_newest);  // the next frame is posed against the moved map
   result->times.ba_ms += msSince(start);
 }
 

@@ -206,8 +206,8 @@ class Pipeline {
   void discardKeyframeTracking();
   /// The current frame's pose refined again against the map points as they are now (after an adjustment).
   void refinePoseAgainstMap(FrameResult* result);
-  /// The optimiser moved keyframe `keyframe_id` from `T_world_keyframe_before`: the published pose's motion
-  /// filter moves with it (motion_filter.move_with_map).
+  /// The optimiser moved the newest keyframe, `keyframe_id`, from `T_world_keyframe_before`: the published
+  /// pose's motion filter moves with it (motion_filter.move_with_map).
   void moveFilterWithMap(uint64_t keyframe_id, const Pose& T_world_keyframe_before);
   /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
   void holdPose(FrameResult* result, const std::string& why);

@@ -235,6 +235,15 @@ TEST(Pipeline, TheMotionFilterSmoothsThePublishedPoseOnly) {
   std::cout << "... the map's moves read as motion: velocity " << v_error_unmoved << " %, one-frame error "
             << oneFrameErrorAndAte(unmoved).first << " %\n";
   EXPECT_LT(v_error, 0.9 * v_error_unmoved);
+  // The same with the optimiser inline (bundle_adjustment.asynchronous false: the map moves at the keyframe
+  // itself, and the filter by the move of the keyframe before it).
+  config.bundle_adjustment.asynchronous = false;
+  const double v_error_inline_unmoved = medianVelocityErrorPercent(runSequence(config, 60));
+  config.motion_filter.move_with_map = true;
+  const double v_error_inline = medianVelocityErrorPercent(runSequence(config, 60));
+  std::cout << "... optimiser inline: velocity " << v_error_inline << " %, the moves read as motion "
+            << v_error_inline_unmoved << " %\n";
+  EXPECT_LT(v_error_inline, 0.9 * v_error_inline_unmoved);
   for (const FrameResult& r : plain.results) EXPECT_FALSE(r.filtered_motion.valid);
 }
 
