@@ -39,11 +39,6 @@ add_test(NAME photoclinometry_check
          COMMAND /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_photoclinometry_check.py)
 set_tests_properties(photoclinometry_check PROPERTIES TIMEOUT 120)
 
-# velocity_nees: scripts/velocity_nees.py (the consistency of the motion filter's velocity covariance) on files
-# with a known NEES.
-add_test(NAME velocity_nees COMMAND /usr/bin/python3 ${CAMPAIGN_TEST_DIR}/test_velocity_nees.py)
-set_tests_properties(velocity_nees PROPERTIES TIMEOUT 60)
-
 # `cmake --build build --target tests` builds the tools the end-to-end tests run.
 add_dependencies(tests lunar_render vo_run vo_eval terrain_eval)
 

@@ -10,9 +10,10 @@ configuration, scores the trajectory with vo_eval and prints one table:
   first-pose         the navigation is handed its initial state (pose and, for a VO without metric scale, the
   alignment          scale of the velocity over the first FIRST_SCALE_WINDOW_S seconds): error at the end (the
                      low gate) in m and in % of the distance travelled, velocity error RMS, tilt error at the end
-  ATE unaligned,     metric rows only: the ATE RMSE in m without any alignment, and the mean NEES of position and of
-  NEES pos / att     attitude (3 dof each; a consistent covariance gives 3) for the rows with a covariance
-                     (imu, fused); "-" for the monocular VO (no metric scale)
+  ATE unaligned,     metric rows only: the ATE RMSE in m without any alignment, and the mean NEES of position, of
+  NEES pos / att /   attitude (rows with a pose covariance: imu, fused) and of the velocity (rows whose velocity
+  vel                comes with a covariance: altimeter, the motion filter's); 3 dof each, a consistent covariance
+                     gives 3; "-" for the monocular VO (no metric scale)
   posed              frames whose pose was estimated (TRACKING or RECOVERED) / processed frames
   mark               correct: Sim(3) ATE <= 1 % and attitude drift <= 0.5 deg; partial: ATE <= 5 %; failed: worse,
                      or fewer than 90 % of the frames posed (lost)
@@ -25,7 +26,8 @@ Groups of rows (--groups, default all):
   kitti      the real KITTI 98 deg turn clip (../shared/data/kitti_clip_turn)
   altimeter  vision + laser altimeter (config/lunar_altimeter.yaml) on the six flight-sensor datasets: metric, so
              vo_run is handed the first true pose only (--initial-state-from-groundtruth) and the end, velocity
-             and tilt columns are scored without any alignment (vo_eval --align none)
+             and tilt columns are scored without any alignment (vo_eval --align none); the velocity column is
+             the motion filter's velocity (vo_run --output-velocity, what nav/odometry gives guidance)
   imu        camera + IMU (config/lunar_imu.yaml), the same way, handed the first true pose and velocity; the
              velocity column is the estimator's own velocity (vo_run --output-velocity)
   fused      camera + IMU + altimeter (config/lunar_fused.yaml), the same way
@@ -81,7 +83,8 @@ def default_rows():
                           sun_elevation=45.0, sun_azimuth=30.0, sensor_seed=13))
     rows.append({"group": "kitti", "sequence": "kitti_clip_turn", "size": None, "sensors": "real camera"})
     for s in LUNAR_SEQUENCES:
-        rows.append(lunar_row("altimeter", s, 1024, "flight", configs=["lunar_altimeter"], metric=True))
+        rows.append(lunar_row("altimeter", s, 1024, "flight", configs=["lunar_altimeter"], metric=True,
+                              velocity=True))
     for s in LUNAR_SEQUENCES:
         rows.append(lunar_row("imu", s, 1024, "flight", configs=["lunar_imu"], metric=True, velocity=True))
     for s in LUNAR_SEQUENCES:
@@ -258,6 +261,8 @@ def eval_metrics(sim3, first):
             m["nees_position"] = nees["position"]["mean"]
         if nees.get("attitude"):
             m["nees_attitude"] = nees["attitude"]["mean"]
+        if nees.get("velocity"):
+            m["nees_velocity"] = nees["velocity"]["mean"]
     return m
 
 
@@ -484,19 +489,20 @@ def fmt(v, spec):
 HEADER = ("| sequence | image | sensors | Sun el/az deg | terrain (DEM #placement, seed) | sensor seed | "
           "defaults | config | Sim3 ATE % | attitude drift deg | 1-frame RPE % | RPE over 10 % of path, % | "
           "scale err RMS % | "
-          "end err m (% dist) | velocity err RMS m/s | end tilt deg | ATE unaligned, NEES pos / att | posed | mark | "
+          "end err m (% dist) | velocity err RMS m/s | end tilt deg | ATE unaligned, NEES pos / att / vel | posed | mark | "
           "ms/frame median / p99 |")
 
 
 def se3_nees(r):
-    """The metric rows' ATE without any alignment and the mean NEES of position / attitude (3 dof each: a
-    consistent covariance gives 3)."""
+    """The metric rows' ATE without any alignment and the mean NEES of position / attitude / velocity (3 dof
+    each: a consistent covariance gives 3)."""
     if not r.get("metric"):
         return "- (no metric scale)"
     ate = "-" if r.get("abs_ate_m") is None else f"{r['abs_ate_m']:.2f} m"
-    if r.get("nees_position") is None:
+    if r.get("nees_position") is None and r.get("nees_velocity") is None:
         return f"{ate}, - (no covariance)"
-    return f"{ate}, {r['nees_position']:.2f} / {fmt(r.get('nees_attitude'), '.2f')}"
+    return (f"{ate}, {fmt(r.get('nees_position'), '.2f')} / {fmt(r.get('nees_attitude'), '.2f')} / "
+            f"{fmt(r.get('nees_velocity'), '.2f')}")
 
 
 def format_row(r):
@@ -595,11 +601,12 @@ def write_docs(tables, results, args):
              "(scale drift); end err, velocity err and end tilt after the first-pose alignment with the scale of "
              f"the first {FIRST_SCALE_WINDOW_S:g} s (the initial state handed over), except for the "
              "`lunar_altimeter` rows (vision + altimeter, metric): they are handed the first true pose only and "
-             "scored without any alignment, and the `lunar_imu` / `lunar_fused` rows (camera + IMU, with the "
+             "scored without any alignment, velocity error of the motion filter's velocity, and the `lunar_imu` / `lunar_fused` rows (camera + IMU, with the "
              "altimeter): handed the first true pose and velocity, scored without any alignment, velocity error "
              "of the estimator's own velocity; ATE unaligned = ATE RMSE in m without any alignment (metric rows), "
-             "NEES pos / att = mean NEES of position and attitude (3 dof each, 3 when consistent; rows with a "
-             "covariance: imu, fused); posed = frames with an estimated pose "
+             "NEES pos / att / vel = mean NEES of position and attitude (rows with a pose covariance: imu, fused) "
+             "and of the velocity (rows whose velocity has a covariance: altimeter, the motion filter's), 3 dof "
+             "each, 3 when consistent; posed = frames with an estimated pose "
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
              "Marks: correct = Sim3 ATE <= 1 % and attitude drift <= 0.5 deg; partial = ATE <= 5 %; failed = worse, "
              "or fewer than 90 % of the processed frames posed (lost).", "", tables, ""]

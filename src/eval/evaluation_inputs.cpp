@@ -62,6 +62,22 @@ void requireIncreasing(const std::string& path, int line_number, bool has_previo
     throw EvalError(where(path, line_number) + "time stamps must increase strictly");
 }
 
+/// The N x N covariance stored row-major at `values`: symmetric (to 1e-9 of its largest entry, then
+/// symmetrised) and positive definite, else an error naming the line.
+template <int N>
+Eigen::Matrix<double, N, N> checkedCovariance(const std::string& path, int line_number, const double* values) {
+  Eigen::Matrix<double, N, N> P;
+  for (int r = 0; r < N; ++r)
+    for (int c = 0; c < N; ++c) P(r, c) = values[N * r + c];
+  const double largest = P.cwiseAbs().maxCoeff();
+  if ((P - P.transpose()).cwiseAbs().maxCoeff() > 1e-9 * largest)
+    throw EvalError(where(path, line_number) + "the covariance is not symmetric");
+  P = (0.5 * (P + P.transpose())).eval();
+  if (!(largest > 0.0) || P.llt().info() != Eigen::Success)
+    throw EvalError(where(path, line_number) + "the covariance is not positive definite");
+  return P;
+}
+
 bool isDirectory(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
@@ -101,12 +117,16 @@ std::vector<StampedVelocity> readEstimateVelocities(const std::string& path) {
   std::vector<StampedVelocity> velocities;
   forEachRow(path, [&](int line_number, const std::vector<double>& v) {
     // t vx vy vz, optionally followed by the six bias estimates (vo_run --output-velocity, camera + IMU) or
-    // the velocity's 3x3 covariance (the motion filter's, without the IMU; not used here:
-    // scripts/velocity_nees.py scores it).
+    // the velocity's 3x3 covariance, row-major (the motion filter's, without the IMU): the velocity NEES.
     if (v.size() != 10 && v.size() != 13) requireCount(path, line_number, v, 4);
     requireIncreasing(path, line_number, !velocities.empty(),
                       velocities.empty() ? 0.0 : velocities.back().timestamp_s, v[0]);
-    velocities.push_back({v[0], Eigen::Vector3d(v[1], v[2], v[3])});
+    StampedVelocity s{v[0], Eigen::Vector3d(v[1], v[2], v[3])};
+    if (v.size() == 13) {
+      s.has_covariance = true;
+      s.covariance = checkedCovariance<3>(path, line_number, v.data() + 4);
+    }
+    velocities.push_back(s);
   });
   return velocities;
 }
@@ -123,16 +143,11 @@ std::vector<StampedCovariance> readEstimateCovariances(const std::string& path) 
                       std::to_string(v.size()));
     requireIncreasing(path, line_number, !covariances.empty(),
                       covariances.empty() ? 0.0 : covariances.back().timestamp_s, v[0]);
-    const int n = v.size() == 10 ? 3 : 6;
-    Eigen::MatrixXd P(n, n);
-    for (int r = 0; r < n; ++r)
-      for (int c = 0; c < n; ++c) P(r, c) = v[1 + n * r + c];
-    const double largest = P.cwiseAbs().maxCoeff();
-    if ((P - P.transpose()).cwiseAbs().maxCoeff() > 1e-9 * largest)
-      throw EvalError(where(path, line_number) + "the covariance is not symmetric");
-    P = 0.5 * (P + P.transpose());
-    if (!(largest > 0.0) || P.llt().info() != Eigen::Success)
-      throw EvalError(where(path, line_number) + "the covariance is not positive definite");
+    Eigen::MatrixXd P;
+    if (v.size() == 10)
+      P = checkedCovariance<3>(path, line_number, v.data() + 1);
+    else
+      P = checkedCovariance<6>(path, line_number, v.data() + 1);
     covariances.push_back({v[0], P});
   });
   return covariances;

@@ -238,14 +238,17 @@ std::string formatReport(const TrajectoryEvaluation& ev) {
   r << "  scale    " << statsLine(ev.scale_error_percent, "%") << ", max |.| "
     << format("%.4f", ev.scale_error_percent.max_abs) << " % (" << ev.scale_error_percent.count
     << " poses; trailing window " << format("%.3f", ev.options.scale_window_s) << " s)\n";
-  if (ev.covariance_dimension > 0) {
-    r << "\nNEES (estimated covariance " << ev.covariance_dimension << "x" << ev.covariance_dimension
-      << ")\n";
-    r << "  position " << neesLine(ev.nees_position) << "\n";
+  if (ev.covariance_dimension > 0 || ev.has_velocity_covariance) {
+    r << "\nNEES (estimated covariance";
+    if (ev.covariance_dimension > 0) r << " " << ev.covariance_dimension << "x" << ev.covariance_dimension;
+    if (ev.has_velocity_covariance) r << (ev.covariance_dimension > 0 ? "; " : " ") << "velocity 3x3";
+    r << ")\n";
+    if (ev.covariance_dimension > 0) r << "  position " << neesLine(ev.nees_position) << "\n";
     if (ev.covariance_dimension == 6) {
       r << "  attitude " << neesLine(ev.nees_attitude) << "\n";
       r << "  pose     " << neesLine(ev.nees_pose) << "\n";
     }
+    if (ev.has_velocity_covariance) r << "  velocity " << neesLine(ev.nees_velocity) << "\n";
   }
 
   r << "\nRelative pose error\n";
@@ -320,11 +323,12 @@ std::string toJson(const TrajectoryEvaluation& ev, bool with_poses) {
   j.vector("up_axis_world", ev.options.up_world);
   j.stats("scale_error_percent", ev.scale_error_percent);
   j.number("scale_window_s", ev.options.scale_window_s);
-  if (ev.covariance_dimension > 0) {
+  if (ev.covariance_dimension > 0 || ev.has_velocity_covariance) {
     j.beginObject("nees");
     j.integer("covariance_dimension", ev.covariance_dimension);
-    j.nees("position", ev.nees_position);
+    if (ev.covariance_dimension > 0) j.nees("position", ev.nees_position);
     if (ev.covariance_dimension == 6) j.nees("attitude", ev.nees_attitude).nees("pose", ev.nees_pose);
+    if (ev.has_velocity_covariance) j.nees("velocity", ev.nees_velocity);
     j.endObject();
   }
   j.beginArray("rpe");
@@ -364,6 +368,8 @@ std::string toJson(const TrajectoryEvaluation& ev, bool with_poses) {
       j.numbers("nees_attitude", series(ev, [](const PoseError& p) { return p.nees_attitude; }));
       j.numbers("nees_pose", series(ev, [](const PoseError& p) { return p.nees_pose; }));
     }
+    if (ev.has_velocity_covariance)
+      j.numbers("nees_velocity", series(ev, [](const PoseError& p) { return p.nees_velocity; }));
     j.endObject();
     j.beginArray("poses");
     for (const PoseError& p : ev.poses) {
@@ -391,7 +397,7 @@ void writePoseErrorsCsv(const std::string& path, const TrajectoryEvaluation& ev)
   out << "t_s,gt_x_m,gt_y_m,gt_z_m,est_x_m,est_y_m,est_z_m,err_x_m,err_y_m,err_z_m,ate_m,rot_err_deg,"
          "gt_qx,gt_qy,gt_qz,gt_qw,est_qx,est_qy,est_qz,est_qw,"
          "t_rel_s,dist_m,gt_vx_mps,gt_vy_mps,gt_vz_mps,est_vx_mps,est_vy_mps,est_vz_mps,vel_err_x_mps,"
-         "vel_err_y_mps,vel_err_z_mps,vel_err_mps,tilt_err_deg,scale_err_pct,nees_pos,nees_att,nees_pose\n";
+         "vel_err_y_mps,vel_err_z_mps,vel_err_mps,tilt_err_deg,scale_err_pct,nees_pos,nees_att,nees_pose,nees_vel\n";
   std::string line;
   const auto add = [&line](const char* fmt, double value) {
     if (!line.empty()) line += ',';
@@ -416,6 +422,7 @@ void writePoseErrorsCsv(const std::string& path, const TrajectoryEvaluation& ev)
     add("%.6g", p.nees_position);
     add("%.6g", p.nees_attitude);
     add("%.6g", p.nees_pose);
+    add("%.6g", p.nees_velocity);
     out << line << '\n';
   }
   if (!out.flush()) throw EvalError("error while writing " + path);

@@ -186,18 +186,18 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-/// The nearest covariance in time to `timestamp_s` within max_dt_s, or nullptr.
-const StampedCovariance* nearestCovariance(const std::vector<StampedCovariance>& covariances,
-                                           double timestamp_s, double max_dt_s) {
-  const auto after = std::lower_bound(covariances.begin(), covariances.end(), timestamp_s,
-                                      [](const StampedCovariance& c, double t) { return c.timestamp_s < t; });
-  const StampedCovariance* best = nullptr;
+/// The nearest sample in time to `timestamp_s` within max_dt_s (samples sorted by timestamp_s), or nullptr.
+template <typename Sample>
+const Sample* nearestSample(const std::vector<Sample>& samples, double timestamp_s, double max_dt_s) {
+  const auto after = std::lower_bound(samples.begin(), samples.end(), timestamp_s,
+                                      [](const Sample& c, double t) { return c.timestamp_s < t; });
+  const Sample* best = nullptr;
   double best_dt = max_dt_s;
-  if (after != covariances.end() && std::abs(after->timestamp_s - timestamp_s) <= best_dt) {
+  if (after != samples.end() && std::abs(after->timestamp_s - timestamp_s) <= best_dt) {
     best = &*after;
     best_dt = std::abs(after->timestamp_s - timestamp_s);
   }
-  if (after != covariances.begin() && std::abs(std::prev(after)->timestamp_s - timestamp_s) <= best_dt)
+  if (after != samples.begin() && std::abs(std::prev(after)->timestamp_s - timestamp_s) <= best_dt)
     best = &*std::prev(after);
   return best;
 }
@@ -264,6 +264,22 @@ void computeVelocityErrors(const Trajectory& ground_truth, const AssociatedTraje
     p.velocity_error_mps = v_est[k] - v_gt[k];
     p.velocity_error_norm_mps = p.velocity_error_mps.allFinite() ? p.velocity_error_mps.norm() : kNaN;
   }
+
+  // The velocity NEES, where the estimator gave the velocity's covariance (at the pose's stamp): the covariance
+  // brought into the ground-truth world like the velocity (s R P R^T s).
+  ev->has_velocity_covariance =
+      std::any_of(inputs.estimate_velocity.begin(), inputs.estimate_velocity.end(),
+                  [](const StampedVelocity& v) { return v.has_covariance; });
+  if (!ev->has_velocity_covariance) return;
+  const Eigen::Matrix3d J = ev->alignment.scale * ev->alignment.R_gt_est;
+  for (size_t k = 0; k < n; ++k) {
+    const StampedVelocity* s = nearestSample(inputs.estimate_velocity, est_stamps[k], options.max_dt_s);
+    PoseError& p = ev->poses[k];
+    if (s == nullptr || !s->has_covariance || !p.velocity_error_mps.allFinite()) continue;
+    const Eigen::LLT<Eigen::Matrix3d> llt(J * s->covariance * J.transpose());
+    if (llt.info() != Eigen::Success) throw EvalError("a velocity covariance is not positive definite");
+    p.nees_velocity = p.velocity_error_mps.dot(llt.solve(p.velocity_error_mps));
+  }
 }
 
 }  // namespace
@@ -322,7 +338,7 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
     ev.covariance_dimension = static_cast<int>(inputs.estimate_covariance.front().covariance.rows());
     for (size_t k = 0; k < n; ++k) {
       const StampedCovariance* c =
-          nearestCovariance(inputs.estimate_covariance, pairs.estimate[k].timestamp_s, options.max_dt_s);
+          nearestSample(inputs.estimate_covariance, pairs.estimate[k].timestamp_s, options.max_dt_s);
       if (c == nullptr) continue;
       if (c->covariance.rows() != ev.covariance_dimension)
         throw EvalError("the estimate's covariances must all have the same size");
@@ -334,7 +350,7 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
     }
   }
 
-  std::vector<double> ate, rot, x, y, z, velocity, tilt, nees_position, nees_attitude, nees_pose;
+  std::vector<double> ate, rot, x, y, z, velocity, tilt, nees_position, nees_attitude, nees_pose, nees_velocity;
   for (const PoseError& e : ev.poses) {
     ate.push_back(e.translation_error_m);
     rot.push_back(e.rotation_error_deg);
@@ -346,6 +362,7 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
     nees_position.push_back(e.nees_position);
     nees_attitude.push_back(e.nees_attitude);
     nees_pose.push_back(e.nees_pose);
+    nees_velocity.push_back(e.nees_velocity);
   }
   ev.ate_m = computeStatistics(ate);
   ev.ate_rmse_percent = ev.gt_path_length_m > 0.0 ? 100.0 * ev.ate_m.rmse / ev.gt_path_length_m : 0.0;
@@ -363,6 +380,7 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& ground_truth, const Tr
     ev.nees_attitude = computeNeesStatistics(nees_attitude, 3);
     ev.nees_pose = computeNeesStatistics(nees_pose, 6);
   }
+  if (ev.has_velocity_covariance) ev.nees_velocity = computeNeesStatistics(nees_velocity, 3);
 
   const PoseError& last = ev.poses.back();
   FinalErrors& f = ev.final_errors;

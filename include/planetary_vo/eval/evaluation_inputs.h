@@ -22,6 +22,10 @@ namespace planetary_vo {
 struct StampedVelocity {
   double timestamp_s = 0.0;
   Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();
+  /// The estimator's covariance of that velocity (same frame and units, squared), when it reports one (vo_run
+  /// --output-velocity without the IMU: the motion filter's): the velocity NEES.
+  bool has_covariance = false;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
 /// A covariance reported by the estimator for its pose at `timestamp_s`. 3x3: position [m^2, world of the

@@ -63,6 +63,8 @@ struct PoseError {
   double nees_position = std::numeric_limits<double>::quiet_NaN();  ///< 3 dof, with a covariance
   double nees_attitude = std::numeric_limits<double>::quiet_NaN();  ///< 3 dof, with a 6x6 covariance
   double nees_pose = std::numeric_limits<double>::quiet_NaN();      ///< 6 dof, with a 6x6 covariance
+  /// 3 dof, where the estimated velocity came with its covariance (EvaluationInputs::estimate_velocity)
+  double nees_velocity = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Relative pose error for one delta (a number of frames, or a travelled distance along the ground truth).
@@ -157,6 +159,9 @@ struct TrajectoryEvaluation {
   NeesStatistics nees_position;  ///< 3 dof
   NeesStatistics nees_attitude;  ///< 3 dof, 6x6 covariances only
   NeesStatistics nees_pose;      ///< 6 dof, 6x6 covariances only
+  /// The estimated velocity came with its covariance: nees_velocity (3 dof) is meaningful.
+  bool has_velocity_covariance = false;
+  NeesStatistics nees_velocity;
 
   std::vector<RelativeError> rpe;  ///< frame deltas, then distance deltas
   std::vector<PoseError> poses;    ///< per associated pose

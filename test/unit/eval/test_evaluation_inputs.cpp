@@ -98,8 +98,17 @@ TEST(EstimateFiles, VelocitiesAndCovariances) {
   // With the six IMU bias estimates, or the motion filter's 3x3 velocity covariance.
   writeText(dir + "/v10.txt", "1.0 0.5 -1 2 0 0 0 0 0 0\n");
   EXPECT_EQ(readEstimateVelocities(dir + "/v10.txt").size(), 1u);
-  writeText(dir + "/v13.txt", "1.0 0.5 -1 2 1 0 0 0 1 0 0 0 1\n");
-  EXPECT_EQ(readEstimateVelocities(dir + "/v13.txt")[0].velocity_world, Eigen::Vector3d(0.5, -1, 2));
+  EXPECT_FALSE(readEstimateVelocities(dir + "/v10.txt")[0].has_covariance);
+  writeText(dir + "/v13.txt", "1.0 0.5 -1 2 4 1 0 1 9 0 0 0 16\n");
+  const std::vector<StampedVelocity> v13 = readEstimateVelocities(dir + "/v13.txt");
+  EXPECT_EQ(v13[0].velocity_world, Eigen::Vector3d(0.5, -1, 2));
+  ASSERT_TRUE(v13[0].has_covariance);
+  EXPECT_DOUBLE_EQ(v13[0].covariance(1, 0), 1.0);
+  EXPECT_DOUBLE_EQ(v13[0].covariance(2, 2), 16.0);
+  EXPECT_NE(errorOf(dir + "/v.txt", "1.0 0.5 -1 2 4 1 0 0 9 0 0 0 16\n", velocities).find("v.txt:1: the covariance is not symmetric"),
+            std::string::npos);
+  EXPECT_NE(errorOf(dir + "/v.txt", "1.0 0.5 -1 2 1 0 0 0 -1 0 0 0 1\n", velocities).find("not positive definite"),
+            std::string::npos);
   EXPECT_NE(errorOf(dir + "/v.txt", "1.0 0.5 -1 2 1\n", velocities).find("expected 4 values, got 5"),
             std::string::npos);
 

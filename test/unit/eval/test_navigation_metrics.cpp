@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "eval_test_util.h"
+#include "planetary_vo/eval/evaluation_report.h"
 #include "planetary_vo/eval/navigation_metrics.h"
 #include "planetary_vo/eval/trajectory_metrics.h"
 
@@ -417,6 +418,59 @@ TEST(Nees, CovarianceIsRotatedAndScaledByTheAlignment) {
     EXPECT_STREQ(s.verdict(), "consistent") << s.dof << " dof: mean " << s.mean;
     EXPECT_NEAR(s.mean, direct_stats[i]->mean, 0.03 * s.dof);
   }
+}
+
+TEST(Nees, VelocityNeesFromTheReportedCovarianceInTheEstimatesWorld) {
+  // The descent's true velocity reported by a monocular-like estimate in another world (scale 1/20, rotated),
+  // with known errors and covariances given in that world: errors of (1, 0, 0) m/s with a covariance of
+  // diag(0.25, 1, 1) (m/s)^2 and (0, 2, 0) m/s with diag(1, 1, 1) alternate, so the NEES are 4 and 4 after the
+  // alignment brings both into the ground-truth world; the velocity's rotation and scale must be applied to
+  // the covariance as well.
+  const Trajectory gt = test::descentGroundTruth();
+  const double scale = 20.0;
+  const Eigen::Matrix3d R = test::rotationDeg(40.0, Eigen::Vector3d(1.0, 2.0, -0.5));
+  const Trajectory est = test::inOtherWorld(gt, scale, R, Eigen::Vector3d(10.0, 20.0, 30.0));
+  EvaluationInputs inputs;
+  for (size_t k = 0; k < gt.size(); ++k) {
+    const double t = gt[k].timestamp_s;
+    const bool even = k % 2 == 0;
+    const Eigen::Vector3d error = even ? Eigen::Vector3d(1.0, 0.0, 0.0) : Eigen::Vector3d(0.0, 2.0, 0.0);
+    const Eigen::Matrix3d C = even ? Eigen::Vector3d(0.25, 1.0, 1.0).asDiagonal().toDenseMatrix()
+                                   : Eigen::Matrix3d::Identity();
+    StampedVelocity v;
+    v.timestamp_s = t;
+    v.velocity_world = R.transpose() * (test::descentVelocity(t - gt.front().timestamp_s) + error) / scale;
+    v.has_covariance = true;
+    v.covariance = R.transpose() * C * R / (scale * scale);
+    inputs.estimate_velocity.push_back(v);
+  }
+  for (int k = 0; k <= 2380; ++k) {  // truth from a 200 Hz state file, as in the velocity tests above
+    GroundTruthState s;
+    s.timestamp_s = gt.front().timestamp_s + 0.005 * k;
+    s.velocity_world_mps = test::descentVelocity(0.005 * k);
+    inputs.ground_truth_state.push_back(s);
+  }
+  EvaluationOptions options;
+  options.alignment = AlignmentMode::kFirstPose;
+  options.first_pose.scale_window_s = 2.0;
+  const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options, inputs);
+  ASSERT_TRUE(ev.has_velocity_covariance);
+  EXPECT_EQ(ev.covariance_dimension, 0);  // no pose covariance given
+  EXPECT_EQ(ev.nees_velocity.count, gt.size());
+  EXPECT_NEAR(ev.nees_velocity.mean, 4.0, 1e-4);
+  EXPECT_NEAR(ev.nees_velocity.max, 4.0, 1e-4);
+  EXPECT_STREQ(ev.nees_velocity.verdict(), "optimistic");  // 4 against 3 over 120 poses
+  // Covariances 4/3 as large: consistent on average (mean 3).
+  for (StampedVelocity& v : inputs.estimate_velocity) v.covariance *= 4.0 / 3.0;
+  const TrajectoryEvaluation scaled = evaluateTrajectory(gt, est, options, inputs);
+  EXPECT_NEAR(scaled.nees_velocity.mean, 3.0, 1e-4);
+  // The report and the JSON carry it; without covariances there is none.
+  EXPECT_NE(formatReport(scaled).find("  velocity mean 3.000"), std::string::npos) << formatReport(scaled);
+  EXPECT_NE(toJson(scaled, false).find("\"velocity\""), std::string::npos);
+  for (StampedVelocity& v : inputs.estimate_velocity) v.has_covariance = false;
+  const TrajectoryEvaluation without = evaluateTrajectory(gt, est, options, inputs);
+  EXPECT_FALSE(without.has_velocity_covariance);
+  EXPECT_EQ(toJson(without, false).find("\"nees\""), std::string::npos);
 }
 
 }  // namespace

@@ -217,14 +217,15 @@ TEST(Report, TextJsonAndCsvCarryTheResults) {
   std::stringstream ss(first);
   std::vector<double> values;
   for (std::string cell; std::getline(ss, cell, ',');) values.push_back(std::stod(cell));
-  ASSERT_EQ(values.size(), 37u);        // 20 pose columns + 17 navigation columns
+  ASSERT_EQ(values.size(), 38u);        // 20 pose columns + 18 navigation columns
   EXPECT_NEAR(values[9], 3.0, 1e-6);    // err_z_m
   EXPECT_NEAR(values[10], 3.0, 1e-6);   // ate_m
   EXPECT_NEAR(values[20], 0.0, 1e-12);  // t_rel_s
   EXPECT_NEAR(values[31], 0.0, 1e-6);   // vel_err_mps: a constant offset has no velocity error
   EXPECT_TRUE(std::isnan(values[33]));  // scale_err_pct: the 5 s window is not full at the first pose
   EXPECT_TRUE(std::isnan(values[34]));  // nees_pos: no covariance
-  EXPECT_NE(header.find(",vel_err_mps,tilt_err_deg,scale_err_pct,nees_pos,nees_att,nees_pose"),
+  EXPECT_TRUE(std::isnan(values[37]));  // nees_vel: no velocity covariance
+  EXPECT_NE(header.find(",vel_err_mps,tilt_err_deg,scale_err_pct,nees_pos,nees_att,nees_pose,nees_vel"),
             std::string::npos);
   // JSON: no NEES without a covariance; statistics without values are null, not 0.
   const std::string no_nees =
