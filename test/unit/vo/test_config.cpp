@@ -290,11 +290,18 @@ TEST(VoConfig, DefaultYamlListsAndCommentsEveryKey) {
   EXPECT_EQ(key_lines, static_cast<int>(dumpedKeys(VoConfig()).size()));
 }
 
-TEST(VoConfig, AltimeterConfigDiffersFromTheDefaultOnlyByTheAltimeter) {
+TEST(VoConfig, AltimeterConfigDiffersFromTheDefaultOnlyByTheAltimeterAndTheFiltersProcessNoise) {
+  // The altimeter on, and the motion filter's process noise of step 17 (docs/visual_core.md, step 18: its
+  // velocity covariance, which guidance reads in this mode, holds with it).
   VoConfig c = loadVoConfig(sourceRoot() + "config/lunar_altimeter.yaml");
   EXPECT_TRUE(c.altimeter.enabled);
+  EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s, 2.0 * VoConfig().motion_filter.accel_sigma_ratio_per_s);
+  EXPECT_DOUBLE_EQ(c.motion_filter.jerk_sigma_ratio_per_s2, 2.0 * VoConfig().motion_filter.jerk_sigma_ratio_per_s2);
   c.altimeter.enabled = false;
-  EXPECT_TRUE(c == VoConfig()) << "config/lunar_altimeter.yaml changes more than altimeter.enabled:\n"
+  c.motion_filter.accel_sigma_ratio_per_s = VoConfig().motion_filter.accel_sigma_ratio_per_s;
+  c.motion_filter.jerk_sigma_ratio_per_s2 = VoConfig().motion_filter.jerk_sigma_ratio_per_s2;
+  EXPECT_TRUE(c == VoConfig()) << "config/lunar_altimeter.yaml changes more than altimeter.enabled and the "
+                                  "motion filter's process noise:\n"
                                << c.dump();
 }
 
