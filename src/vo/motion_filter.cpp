@@ -133,10 +133,9 @@ void MotionFilter::moveWithMap(const Pose& T_new_old) {
   Matrix15d G = Matrix15d::Zero();
   for (int b = 0; b < 5; ++b) G.block<3, 3>(3 * b, 3 * b) = R;
   P_ = G * P_ * G.transpose();
+  // The last measurement moves along (the rates start from it after a rejection).
+  const Matrix6d G6 = G.topLeftCorner<6, 6>();
   last_.T_world_cam = T_new_old * last_.T_world_cam;
-  Matrix6d G6 = Matrix6d::Zero();
-  G6.topLeftCorner<3, 3>() = R;
-  G6.bottomRightCorner<3, 3>() = R;
   last_.covariance = G6 * last_.covariance * G6.transpose();
   last_.information = G6 * last_.information * G6.transpose();
 }

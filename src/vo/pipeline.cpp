@@ -270,7 +270,7 @@ void Pipeline::reconfigure(const VoConfig& next) {
     // would have, with the covariance the worker computed after it; then stop the worker.
     async_ba_->waitIdle();
     if (auto finished = async_ba_->takeResult(); finished && finished->second.converged)
-      map_.applyBaResult(finished->first, finished->second.outliers);
+      applyAdjustment(finished->first, finished->second.outliers);
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
     async_ba_.reset();
     images_since_ba_submit_ = -1;
@@ -986,10 +986,7 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   const BaSummary summary = adjustBundle(&problem, adjustmentConfig(*result));
   result->times.optimiser_ms = summary.solve_cpu_ms;
   if (summary.converged) {
-    const uint64_t newest_id = map_.keyframes().back().id;  // this frame
-    const Pose T_world_newest = map_.keyframes().back().T_world_cam;
-    const int removed = map_.applyBaResult(problem, summary.outliers);
-    moveFilterWithMap(newest_id, T_world_newest);
+    const int removed = applyAdjustment(problem, summary.outliers);
     // The current frame is the newest keyframe: report its adjusted pose.
     result->T_world_cam = map_.keyframes().back().T_world_cam;
     last_good_.T_world_cam = result->T_world_cam;
@@ -999,13 +996,17 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   result->times.ba_ms += msSince(start);
 }
 
-void Pipeline::moveFilterWithMap(uint64_t keyframe_id, const Pose& T_world_keyframe_before) {
+int Pipeline::applyAdjustment(const BaProblem& problem, const std::vector<BaObservation>& outliers) {
+  const uint64_t newest_id = map_.keyframes().back().id;
+  const Pose T_world_newest_before = map_.keyframes().back().T_world_cam;
+  const int removed = map_.applyBaResult(problem, outliers);
   // The filter of the published pose moves by the move of the newest keyframe (the frames are posed mostly
   // against its points; with the optimiser inline it is this frame), so that the frame posed against the
   // moved map does not read the move as motion (docs/visual_core.md step 17).
-  if (!config_.motion_filter.move_with_map) return;
-  if (const Keyframe* after = map_.keyframe(keyframe_id))
-    motion_filter_.moveWithMap(after->T_world_cam * T_world_keyframe_before.inverse());
+  if (config_.motion_filter.move_with_map)
+    if (const Keyframe* after = map_.keyframe(newest_id))
+      motion_filter_.moveWithMap(after->T_world_cam * T_world_newest_before.inverse());
+  return removed;
 }
 
 void Pipeline::refinePoseAgainstMap(FrameResult* result) {
@@ -1108,10 +1109,7 @@ void Pipeline::applyAsyncBundleAdjustment(FrameResult* result) {
   }
   if (finished) result->times.optimiser_ms = finished->second.solve_cpu_ms;
   if (!finished || !finished->second.converged) return;
-  const uint64_t newest_id = map_.keyframes().back().id;
-  const Pose T_world_newest = map_.keyframes().back().T_world_cam;
-  map_.applyBaResult(finished->first, finished->second.outliers);
-  moveFilterWithMap(newest_id, T_world_newest);  // the next frame is posed against the moved map
+  applyAdjustment(finished->first, finished->second.outliers);  // the next frame is posed against it
   result->times.ba_ms += msSince(start);
 }
 

@@ -206,9 +206,9 @@ class Pipeline {
   void discardKeyframeTracking();
   /// The current frame's pose refined again against the map points as they are now (after an adjustment).
   void refinePoseAgainstMap(FrameResult* result);
-  /// The optimiser moved the newest keyframe, `keyframe_id`, from `T_world_keyframe_before`: the published
-  /// pose's motion filter moves with it (motion_filter.move_with_map).
-  void moveFilterWithMap(uint64_t keyframe_id, const Pose& T_world_keyframe_before);
+  /// A converged adjustment into the map (Map::applyBaResult(), whose count of removed points it returns); the
+  /// published pose's motion filter moves with the newest keyframe (motion_filter.move_with_map).
+  int applyAdjustment(const BaProblem& problem, const std::vector<BaObservation>& outliers);
   /// No pose this frame: map mode outputs predictPose(), the unit-step chain holds the last pose.
   void holdPose(FrameResult* result, const std::string& why);
   /// The motion prior (motion_prior.h): the last good pose moved on to the current time.
@@ -246,10 +246,10 @@ class Pipeline {
   std::optional<std::pair<NavState, Eigen::Matrix<double, 9, 9>>> newestCovariance() const;
   /// Adds the window's inertial states, IMU factors and bias prior to `problem`.
   void addInertialFactors(BaProblem* problem) const;
-  /// Velocity and biases of this frame (camera + IMU mode).
   /// The inertial state of a processed (or refused) frame that navStateAt() moves on: the frame's pose and
   /// velocity when it has a velocity, else none.
   void keepNavState(const FrameResult& result);
+  /// Velocity and biases of this frame (camera + IMU mode).
   void fillInertialOutput(FrameResult* result) const;
   /// The published pose of a frame tracked against the map through the motion filter (vision only:
   /// motion_filter.h); the filter restarts on a new or rescaled map.

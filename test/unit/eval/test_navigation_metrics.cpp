@@ -60,28 +60,42 @@ TEST(VelocityError, ConstantVelocityWithAKnownBias) {
   EXPECT_LT(with_file.ate_m.max, 1e-12);
 }
 
-TEST(VelocityError, FileVelocityIsRotatedAndScaledByTheAlignment) {
-  // A monocular-like estimate in another world at scale 1/20, reporting its velocity in that world.
-  const Trajectory gt = test::descentGroundTruth();
-  const double scale = 20.0;
-  const Eigen::Matrix3d R = test::rotationDeg(40.0, Eigen::Vector3d(1.0, 2.0, -0.5));
-  const Trajectory est = test::inOtherWorld(gt, scale, R, Eigen::Vector3d(10.0, 20.0, 30.0));
-  EvaluationInputs inputs;
-  for (const StampedPose& p : gt)
-    inputs.estimate_velocity.push_back(
-        {p.timestamp_s,
-         R.transpose() * test::descentVelocity(p.timestamp_s - gt.front().timestamp_s) / scale});
-  // Truth from a state file: exact velocities, so the error is zero to round-off.
-  for (int k = 0; k <= 2380; ++k) {  // 200 Hz over the 11.9 s
-    GroundTruthState s;
-    s.timestamp_s = gt.front().timestamp_s + 0.005 * k;
-    s.velocity_world_mps = test::descentVelocity(0.005 * k);
-    inputs.ground_truth_state.push_back(s);
-  }
+/// The descent seen by a monocular-like estimate in another world (scale 1/20, rotated, shifted) that reports its
+/// velocity in that world; the truth from a 200 Hz state file (exact velocities); the first-pose alignment with
+/// the scale of the first 2 s, which brings the estimate back.
+struct OtherWorldDescent {
+  Trajectory gt = test::descentGroundTruth();
+  double scale = 20.0;
+  Eigen::Matrix3d R = test::rotationDeg(40.0, Eigen::Vector3d(1.0, 2.0, -0.5));
+  Trajectory est = test::inOtherWorld(gt, scale, R, Eigen::Vector3d(10.0, 20.0, 30.0));
+  EvaluationInputs inputs;  ///< ground_truth_state filled
   EvaluationOptions options;
-  options.alignment = AlignmentMode::kFirstPose;
-  options.first_pose.scale_window_s = 2.0;
-  const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options, inputs);
+
+  OtherWorldDescent() {
+    for (int k = 0; k <= 2380; ++k) {  // 200 Hz over the 11.9 s
+      GroundTruthState s;
+      s.timestamp_s = gt.front().timestamp_s + 0.005 * k;
+      s.velocity_world_mps = test::descentVelocity(0.005 * k);
+      inputs.ground_truth_state.push_back(s);
+    }
+    options.alignment = AlignmentMode::kFirstPose;
+    options.first_pose.scale_window_s = 2.0;
+  }
+  /// The true velocity at pose k plus `error` (ground-truth world), as the estimate reports it in its world.
+  StampedVelocity reported(size_t k, const Eigen::Vector3d& error = Eigen::Vector3d::Zero()) const {
+    const double t = gt[k].timestamp_s;
+    return {t, R.transpose() * (test::descentVelocity(t - gt.front().timestamp_s) + error) / scale};
+  }
+};
+
+TEST(VelocityError, FileVelocityIsRotatedAndScaledByTheAlignment) {
+  // Truth from a state file: exact velocities, so the error is zero to round-off.
+  OtherWorldDescent d;
+  const Trajectory& gt = d.gt;
+  const Trajectory& est = d.est;
+  EvaluationInputs& inputs = d.inputs;
+  for (size_t k = 0; k < gt.size(); ++k) inputs.estimate_velocity.push_back(d.reported(k));
+  const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, d.options, inputs);
   EXPECT_EQ(ev.velocity_truth_source, "groundtruth_state");
   EXPECT_EQ(ev.velocity_error_mps.count, gt.size());
   // Linear interpolation of the 200 Hz truth where the stamps do not fall on a sample exactly (they do up to
@@ -426,33 +440,21 @@ TEST(Nees, VelocityNeesFromTheReportedCovarianceInTheEstimatesWorld) {
   // diag(0.25, 1, 1) (m/s)^2 and (0, 2, 0) m/s with diag(1, 1, 1) alternate, so the NEES are 4 and 4 after the
   // alignment brings both into the ground-truth world; the velocity's rotation and scale must be applied to
   // the covariance as well.
-  const Trajectory gt = test::descentGroundTruth();
-  const double scale = 20.0;
-  const Eigen::Matrix3d R = test::rotationDeg(40.0, Eigen::Vector3d(1.0, 2.0, -0.5));
-  const Trajectory est = test::inOtherWorld(gt, scale, R, Eigen::Vector3d(10.0, 20.0, 30.0));
-  EvaluationInputs inputs;
+  OtherWorldDescent d;
+  const Trajectory& gt = d.gt;
+  const Trajectory& est = d.est;
+  EvaluationInputs& inputs = d.inputs;
+  const EvaluationOptions& options = d.options;
   for (size_t k = 0; k < gt.size(); ++k) {
-    const double t = gt[k].timestamp_s;
     const bool even = k % 2 == 0;
     const Eigen::Vector3d error = even ? Eigen::Vector3d(1.0, 0.0, 0.0) : Eigen::Vector3d(0.0, 2.0, 0.0);
     const Eigen::Matrix3d C = even ? Eigen::Vector3d(0.25, 1.0, 1.0).asDiagonal().toDenseMatrix()
                                    : Eigen::Matrix3d::Identity();
-    StampedVelocity v;
-    v.timestamp_s = t;
-    v.velocity_world = R.transpose() * (test::descentVelocity(t - gt.front().timestamp_s) + error) / scale;
+    StampedVelocity v = d.reported(k, error);
     v.has_covariance = true;
-    v.covariance = R.transpose() * C * R / (scale * scale);
+    v.covariance = d.R.transpose() * C * d.R / (d.scale * d.scale);
     inputs.estimate_velocity.push_back(v);
   }
-  for (int k = 0; k <= 2380; ++k) {  // truth from a 200 Hz state file, as in the velocity tests above
-    GroundTruthState s;
-    s.timestamp_s = gt.front().timestamp_s + 0.005 * k;
-    s.velocity_world_mps = test::descentVelocity(0.005 * k);
-    inputs.ground_truth_state.push_back(s);
-  }
-  EvaluationOptions options;
-  options.alignment = AlignmentMode::kFirstPose;
-  options.first_pose.scale_window_s = 2.0;
   const TrajectoryEvaluation ev = evaluateTrajectory(gt, est, options, inputs);
   ASSERT_TRUE(ev.has_velocity_covariance);
   EXPECT_EQ(ev.covariance_dimension, 0);  // no pose covariance given
