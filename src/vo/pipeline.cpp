@@ -60,6 +60,19 @@ constexpr double kMaxInertialScaleError = 0.01;
 // reprojection residual of the bundle adjustment assumes).
 constexpr double kPointObservationSigmaPx = 1.0;
 
+/// The relative 1-sigma of a metric map's scale from the altimeter's range factors of one window: the
+/// median of their relative sigmas, not that over the square root of their number, because the ranges of
+/// nearby keyframes are predicted from planes fitted to the same map points, so their errors are nearly
+/// the same (docs/visual_core.md step 19: the scale error stays at that level while the window moves on).
+double medianRelativeRangeSigma(const std::vector<BaRangeObservation>& ranges) {
+  std::vector<double> relative;
+  relative.reserve(ranges.size());
+  for (const BaRangeObservation& r : ranges) relative.push_back(r.sigma_m / r.measured_range_m);
+  const auto mid = relative.begin() + static_cast<std::ptrdiff_t>(relative.size() / 2);
+  std::nth_element(relative.begin(), mid, relative.end());
+  return *mid;
+}
+
 /// The covariance of [position, attitude, velocity] (world; attitude: truth = Exp(theta) estimate) of state
 /// `a` moved on to state `b` by the IMU: the linearised propagation (the attitude error rotates the
 /// integrated motion, the velocity error grows the position error) plus the white noise of the gyro and
@@ -157,6 +170,8 @@ void Pipeline::reset() {
   scale_confidence_ = 0.0;
   first_map_depth_ = 0.0;
   frames_since_keyframe_ = 0;
+  map_scale_relative_sigma_ = 0.0;
+  keyframes_since_start_ = 0;
   reference_.valid = false;
   last_good_.valid = false;
   motion_filter_.reset();
@@ -623,6 +638,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale_confidence_ = 1.0;
     metric_scale_ = true;
     scale_source_ = ScaleSource::kAltimeter;
+    map_scale_relative_sigma_ = fix.relative_sigma;
     scale_note = ", metric scale from the altimeter: " + std::to_string(fix.measured_range_m) + " m over " +
                  std::to_string(fix.prediction.range) + " baselines (1-sigma " +
                  std::to_string(100.0 * fix.relative_sigma) + " %)";
@@ -658,6 +674,7 @@ void Pipeline::tryInitialise(FrameResult* result) {
   const uint64_t kf_ref =
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
   const uint64_t kf_cur = map_.addKeyframe(timestamp_s_, T_world_cur, track_ids_, px_);
+  ++keyframes_since_start_;  // the reference keyframe is a pose the chain already had
   for (size_t i = 0; i < init.points_c1.size(); ++i) {
     map_.addPoint(init.track_ids[i], T_world_ref * (scale * init.points_c1[i]),
                   {{kf_ref, init.px1[i]}, {kf_cur, init.px2[i]}});
@@ -763,6 +780,16 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
   const FilteredPose filtered = motion_filter_.update(m);
   result->T_world_cam = filtered.T_world_cam;
   result->filtered_motion = filtered.motion;
+  // In metres the velocity is the navigation's (guidance reads its covariance): add what the filter, posed
+  // against the map, cannot see, the map's own scale and attitude errors.
+  if (metric_scale_ && result->filtered_motion.valid) {
+    const double attitude_sigma_rad = config_.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe *
+                                      M_PI / 180.0 * std::sqrt(static_cast<double>(keyframes_since_start_));
+    result->filtered_motion.v_covariance += mapDriftVelocityCovariance(
+        result->filtered_motion.v_world, map_scale_relative_sigma_, attitude_sigma_rad);
+    result->filtered_motion.map_scale_relative_sigma = map_scale_relative_sigma_;
+    result->filtered_motion.map_attitude_sigma_rad = attitude_sigma_rad;
+  }
 }
 
 void Pipeline::startRecovery() {
@@ -808,6 +835,7 @@ void Pipeline::insertKeyframe(FrameResult* result) {
     result->times.pose_ms = msSince(frame_start_);
   }
   const Clock::time_point start = Clock::now();
+  ++keyframes_since_start_;
   KeyframeTracks keyframe_tracks;
   std::string keyframe_note;
   const bool with_map_only = config_.map.keyframe_features > 0 && !current_image_.empty();
@@ -890,6 +918,7 @@ void Pipeline::tryMetricScaleAtKeyframe(FrameResult* result) {
   if (reference_.valid) reference_.T_world_cam = scaled(reference_.T_world_cam);
   metric_scale_ = true;
   scale_source_ = ScaleSource::kAltimeter;
+  map_scale_relative_sigma_ = fix.relative_sigma;
   result->message += "; metric scale from the altimeter: x" + std::to_string(s) + " (1-sigma " +
                      std::to_string(100.0 * fix.relative_sigma) + " %)";
 }
@@ -953,6 +982,7 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (async_ba_)
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
   const std::vector<BaRangeObservation> ranges = altimeterRanges();
+  if (!ranges.empty()) map_scale_relative_sigma_ = medianRelativeRangeSigma(ranges);
   // The window with `num_fixed` oldest keyframes fixed, and the ranges of its free keyframes.
   auto makeProblem = [&](int num_fixed) {
     BaProblem p = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),

@@ -219,6 +219,12 @@ struct MotionFilterConfig {
   /// frame's pose, taken against the moved map, reads the move as motion). The default since
   /// docs/visual_core.md step 17 (held out: velocity error lower on 46 of 53 renders).
   bool move_with_map = true;
+  /// A metric map's attitude drifts (vision has no gravity): a random walk of this 1-sigma per axis per
+  /// keyframe inserted. The published velocity of a metric map (vision + altimeter) carries it, times the speed,
+  /// across the velocity, and the scale's uncertainty along it (mapDriftVelocityCovariance()); the filter itself
+  /// is unchanged. 0.01: the attitude drift of the three benchmark main brakes with the altimeter
+  /// (docs/visual_core.md step 19).
+  double map_attitude_drift_deg_per_sqrt_keyframe = 0.01;
 };
 
 enum class RobustLoss { kNone, kHuber, kCauchy };

@@ -266,6 +266,11 @@ class Pipeline {
   KeyframeTracker keyframe_tracker_;  ///< map.keyframe_features > 0
   MotionFilter motion_filter_;        ///< motion_filter.enabled, vision only
   bool motion_filter_metric_scale_ = false;  ///< the map's scale when the filter last ran
+  /// A metric map's drift that the filter cannot see (mapDriftVelocityCovariance()): the relative 1-sigma of
+  /// its scale (the altimeter fix's, then the median relative sigma of the last adjustment's range factors)
+  /// and the keyframes inserted since the start (the attitude's random walk).
+  double map_scale_relative_sigma_ = 0.0;
+  int keyframes_since_start_ = 0;
   cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
   /// The map-only tracking of the last keyframe when the optimiser runs in its own thread: running in the
   /// background until the next keyframe joins its tracks to that keyframe (keyframe_job_keyframe_id_), just

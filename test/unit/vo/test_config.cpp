@@ -132,6 +132,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.motion_filter.gate_nis, 40.0);
   EXPECT_DOUBLE_EQ(c.motion_filter.max_gap_s, 0.5);
   EXPECT_FALSE(c.motion_filter.move_with_map);
+  EXPECT_DOUBLE_EQ(c.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe, 0.05);
 
   EXPECT_FALSE(c.bundle_adjustment.enabled);
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);

@@ -934,6 +934,43 @@ TEST(Pipeline, AltimeterMakesTheTrajectoryMetricInTheHandedOverFrame) {
   // error. 1 % of the path (about 2 m) would be the bound of a scale error of 1 %.
   EXPECT_LT(final_error_m, 0.01 * path_m);
 
+  // The published velocity's covariance carries the map's drift (mapDriftVelocityCovariance()): the map's
+  // scale, from the altimeter's range factors, along the velocity, and the attitude's random walk across it.
+  // Without the attitude part the estimates are the same to the bit and only the covariance across shrinks.
+  VoConfig no_attitude_drift = config;
+  no_attitude_drift.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe = 0.0;
+  const SequenceRun without = runSequence(no_attitude_drift, 60, -1, -1, true);
+  ASSERT_EQ(without.results.size(), run.results.size());
+  int filtered = 0;
+  for (size_t i = 0; i < run.results.size(); ++i) {
+    const FilteredMotion& a = run.results[i].filtered_motion;
+    const FilteredMotion& b = without.results[i].filtered_motion;
+    ASSERT_EQ(a.valid, b.valid) << "frame " << i;
+    if (!a.valid || !run.results[i].metric_scale) continue;
+    ++filtered;
+    EXPECT_EQ(a.v_world, b.v_world) << "frame " << i;
+    const Eigen::Vector3d u = a.v_world.normalized();
+    const Eigen::Vector3d across = u.cross(Eigen::Vector3d::UnitX()).normalized();
+    const Eigen::Matrix3d added = a.v_covariance - b.v_covariance;
+    EXPECT_NEAR(u.dot(added * u), 0.0, 1e-12 * a.v_world.squaredNorm()) << "frame " << i;
+    EXPECT_NEAR(across.dot(added * across), std::pow(a.map_attitude_sigma_rad * a.v_world.norm(), 2),
+                1e-9 * a.v_world.squaredNorm())
+        << "frame " << i;
+    EXPECT_GT(a.map_attitude_sigma_rad, 0.0) << "frame " << i;
+    // The scale's 1-sigma: at least one reading's noise (0.3 m + 2e-4 of about 500 m) over its range, at most
+    // a few percent; the covariance along the velocity holds at least that much.
+    EXPECT_GT(a.map_scale_relative_sigma, 8e-4) << "frame " << i;
+    EXPECT_LT(a.map_scale_relative_sigma, 0.03) << "frame " << i;
+    EXPECT_GE(u.dot(a.v_covariance * u), std::pow(a.map_scale_relative_sigma * a.v_world.norm(), 2))
+        << "frame " << i;
+    if (i + 1 == run.results.size())
+      std::cout << "last frame: speed " << a.v_world.norm() << " m/s, 1-sigma along the velocity "
+                << std::sqrt(u.dot(a.v_covariance * u)) << " m/s, across "
+                << std::sqrt(across.dot(a.v_covariance * across)) << " m/s (without the attitude's drift "
+                << std::sqrt(across.dot(b.v_covariance * across)) << ")\n";
+  }
+  EXPECT_GE(filtered, 40);
+
   VoConfig vision_only;
   const SequenceRun unaided = runSequence(vision_only, 60, -1, -1, true);
   EXPECT_FALSE(unaided.results.back().metric_scale);
