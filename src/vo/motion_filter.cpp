@@ -36,14 +36,6 @@ void addJerkNoise(double sigma, double dt, Matrix15d* P) {
 
 }  // namespace
 
-Eigen::Matrix3d mapDriftVelocityCovariance(const Eigen::Vector3d& v_world, double relative_scale_sigma,
-                                           double attitude_sigma_rad) {
-  const Eigen::Matrix3d vvT = v_world * v_world.transpose();
-  const double s2 = relative_scale_sigma * relative_scale_sigma;
-  const double a2 = attitude_sigma_rad * attitude_sigma_rad;
-  return s2 * vvT + a2 * (v_world.squaredNorm() * Eigen::Matrix3d::Identity() - vvT);
-}
-
 PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
                                 const std::vector<Eigen::Vector3d>& p_world,
                                 const std::vector<Eigen::Vector2d>& px,

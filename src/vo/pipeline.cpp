@@ -59,6 +59,9 @@ constexpr double kMaxInertialScaleError = 0.01;
 // The pixel noise of one observation for the points' covariance in the map events (the unit the
 // reprojection residual of the bundle adjustment assumes).
 constexpr double kPointObservationSigmaPx = 1.0;
+// The variance of a velocity the pipeline does not know (the first metric frames, before the motion filter
+// has one), (m/s)^2: what nav/odometry publishes for an unknown velocity.
+constexpr double kUnknownVelocityVariance = 1e6;
 
 /// The relative 1-sigma of a metric map's scale from the altimeter's range factors of one window: the
 /// median of their relative sigmas, not that over the square root of their number, because the ranges of
@@ -125,6 +128,8 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       keyframe_tracker_(config.map.keyframe_features, config.map.keyframe_anchor_max_age, config.tracker,
                         config.detector),
       motion_filter_(config.motion_filter),
+      map_drift_(config.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe * M_PI / 180.0,
+                 config.bundle_adjustment.window_keyframes),
       altimeter_(config.altimeter),
       inertial_(config.imu),
       frozen_detector_(config.pipeline.frozen_frame_max_mean_abs_diff,
@@ -170,7 +175,7 @@ void Pipeline::reset() {
   scale_confidence_ = 0.0;
   first_map_depth_ = 0.0;
   frames_since_keyframe_ = 0;
-  map_scale_relative_sigma_ = 0.0;
+  map_drift_.reset();
   keyframes_since_start_ = 0;
   reference_.valid = false;
   last_good_.valid = false;
@@ -638,7 +643,6 @@ void Pipeline::tryInitialise(FrameResult* result) {
     scale_confidence_ = 1.0;
     metric_scale_ = true;
     scale_source_ = ScaleSource::kAltimeter;
-    map_scale_relative_sigma_ = fix.relative_sigma;
     scale_note = ", metric scale from the altimeter: " + std::to_string(fix.measured_range_m) + " m over " +
                  std::to_string(fix.prediction.range) + " baselines (1-sigma " +
                  std::to_string(100.0 * fix.relative_sigma) + " %)";
@@ -675,6 +679,9 @@ void Pipeline::tryInitialise(FrameResult* result) {
       map_.addKeyframe(reference_.timestamp_s, T_world_ref, reference_.track_ids, reference_.px);
   const uint64_t kf_cur = map_.addKeyframe(timestamp_s_, T_world_cur, track_ids_, px_);
   ++keyframes_since_start_;  // the reference keyframe is a pose the chain already had
+  map_drift_.addKeyframe();
+  if (fix.valid && metric_scale_ && scale_source_ == ScaleSource::kAltimeter)
+    startMapDrift(T_world_cur.translation(), fix.relative_sigma);
   for (size_t i = 0; i < init.points_c1.size(); ++i) {
     map_.addPoint(init.track_ids[i], T_world_ref * (scale * init.points_c1[i]),
                   {{kf_ref, init.px1[i]}, {kf_cur, init.px2[i]}});
@@ -780,16 +787,41 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
   const FilteredPose filtered = motion_filter_.update(m);
   result->T_world_cam = filtered.T_world_cam;
   result->filtered_motion = filtered.motion;
-  // In metres the velocity is the navigation's (guidance reads its covariance): add what the filter, posed
-  // against the map, cannot see, the map's own scale and attitude errors.
-  if (metric_scale_ && result->filtered_motion.valid) {
-    const double attitude_sigma_rad = config_.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe *
-                                      M_PI / 180.0 * std::sqrt(static_cast<double>(keyframes_since_start_));
-    result->filtered_motion.v_covariance += mapDriftVelocityCovariance(
-        result->filtered_motion.v_world, map_scale_relative_sigma_, attitude_sigma_rad);
-    result->filtered_motion.map_scale_relative_sigma = map_scale_relative_sigma_;
-    result->filtered_motion.map_attitude_sigma_rad = attitude_sigma_rad;
+  // In metres (vision + altimeter) the pose and velocity are the navigation's, and guidance reads their
+  // covariance: the frame's own (how well it sits in the map) plus the map's drift (how well the map sits in
+  // the world), which the filter, posed against the map at every frame, cannot see.
+  if (!metric_scale_ || !map_drift_.running()) return;
+  map_drift_.moveTo(result->T_world_cam.translation());
+  result->has_covariance = true;
+  result->covariance.setZero();
+  result->covariance.topLeftCorner<6, 6>() = map_drift_.poseCovariance() + m.covariance;
+  FilteredMotion& motion = result->filtered_motion;
+  if (motion.valid) {
+    motion.v_covariance += map_drift_.velocityCovariance(motion.v_world);
+    motion.map_scale_relative_sigma = map_drift_.relativeScaleSigma();
+    motion.map_attitude_sigma_rad = map_drift_.attitudeSigmaRad();
+    result->covariance.bottomRightCorner<3, 3>() = motion.v_covariance;
+    const Eigen::Matrix<double, 3, 6> cross = map_drift_.velocityPoseCovariance(motion.v_world);
+    result->covariance.block<3, 6>(6, 0) = cross;
+    result->covariance.block<6, 3>(0, 6) = cross.transpose();
+  } else {
+    result->covariance.bottomRightCorner<3, 3>() = kUnknownVelocityVariance * Eigen::Matrix3d::Identity();
   }
+}
+
+void Pipeline::startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma) {
+  if (map_drift_.running()) {  // a new fix of a map that was metric already: the drift goes on
+    map_drift_.setScaleSigma(relative_scale_sigma);
+    return;
+  }
+  MapDrift::Matrix6d start = MapDrift::Matrix6d::Zero();
+  if (initial_pose_given_) {  // the handed-over pose's claimed uncertainty; else the world is the first camera
+    start.topLeftCorner<3, 3>().diagonal().setConstant(std::pow(config_.imu.initial_position_sigma_m, 2));
+    start.bottomRightCorner<3, 3>().diagonal().setConstant(
+        std::pow(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0, 2));
+  }
+  map_drift_.start(T_world_cam_initial_.translation(), c_world_m, keyframes_since_start_, relative_scale_sigma,
+                   start);
 }
 
 void Pipeline::startRecovery() {
@@ -836,6 +868,7 @@ void Pipeline::insertKeyframe(FrameResult* result) {
   }
   const Clock::time_point start = Clock::now();
   ++keyframes_since_start_;
+  map_drift_.addKeyframe();
   KeyframeTracks keyframe_tracks;
   std::string keyframe_note;
   const bool with_map_only = config_.map.keyframe_features > 0 && !current_image_.empty();
@@ -918,7 +951,7 @@ void Pipeline::tryMetricScaleAtKeyframe(FrameResult* result) {
   if (reference_.valid) reference_.T_world_cam = scaled(reference_.T_world_cam);
   metric_scale_ = true;
   scale_source_ = ScaleSource::kAltimeter;
-  map_scale_relative_sigma_ = fix.relative_sigma;
+  startMapDrift(result->T_world_cam.translation(), fix.relative_sigma);
   result->message += "; metric scale from the altimeter: x" + std::to_string(s) + " (1-sigma " +
                      std::to_string(100.0 * fix.relative_sigma) + " %)";
 }
@@ -982,7 +1015,7 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (async_ba_)
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
   const std::vector<BaRangeObservation> ranges = altimeterRanges();
-  if (!ranges.empty()) map_scale_relative_sigma_ = medianRelativeRangeSigma(ranges);
+  if (!ranges.empty()) map_drift_.setScaleSigma(medianRelativeRangeSigma(ranges));
   // The window with `num_fixed` oldest keyframes fixed, and the ranges of its free keyframes.
   auto makeProblem = [&](int num_fixed) {
     BaProblem p = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),

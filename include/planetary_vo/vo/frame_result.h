@@ -142,9 +142,11 @@ struct FrameResult {
   /// and in the world frame, but no vision in it: dead reckoning, not a pose estimate (hasPoseEstimate() is
   /// false).
   bool inertial_only = false;
-  /// Camera + IMU mode (has_covariance): covariance of the navigation error [position (world, m), attitude
-  /// (rotation vector of the world-frame error, rad), velocity (world, m/s)], 9x9; see
-  /// docs/fusion/README.md for how it is obtained and what it does not contain.
+  /// Camera + IMU mode, and vision + altimeter with the motion filter once the map is metric (has_covariance):
+  /// covariance of the navigation error [position (world, m), attitude (rotation vector of the world-frame
+  /// error, rad), velocity (world, m/s)], 9x9; see docs/fusion/README.md for how the first is obtained and
+  /// what it does not contain, vo/map_drift.h and docs/visual_core.md step 20 for the second (its velocity
+  /// block: 1e6 (m/s)^2, unknown, before the filter gives a velocity).
   bool has_covariance = false;
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
   /// Vision only and vision + altimeter, with the motion filter on: its velocity and angular rate.

@@ -64,13 +64,6 @@ PoseMeasurement poseMeasurement(double timestamp_s, const Pose& T_world_cam,
                                 double cy, double min_pixel_sigma_px,
                                 std::vector<double>* depth_scratch = nullptr);
 
-/// The covariance that a drift of the map adds to a velocity measured against it (the filter's own covariance
-/// cannot hold it: every measurement is taken against the same map): a relative scale error of 1-sigma
-/// `relative_scale_sigma` along the velocity, and an attitude error of the map of 1-sigma `attitude_sigma_rad`
-/// about each axis across it: relative_scale_sigma^2 v v^T + attitude_sigma_rad^2 (|v|^2 I - v v^T).
-Eigen::Matrix3d mapDriftVelocityCovariance(const Eigen::Vector3d& v_world, double relative_scale_sigma,
-                                           double attitude_sigma_rad);
-
 /// What MotionFilter::update() gives back.
 struct FilteredPose {
   Pose T_world_cam = Pose::Identity();

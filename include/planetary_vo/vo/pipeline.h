@@ -55,6 +55,7 @@
 #include "planetary_vo/vo/keyframe_tracker.h"
 #include "planetary_vo/vo/klt_tracker.h"
 #include "planetary_vo/vo/map.h"
+#include "planetary_vo/vo/map_drift.h"
 #include "planetary_vo/vo/mapper.h"
 #include "planetary_vo/vo/motion_filter.h"
 #include "planetary_vo/vo/pnp_tracker.h"
@@ -254,6 +255,9 @@ class Pipeline {
   /// The published pose of a frame tracked against the map through the motion filter (vision only:
   /// motion_filter.h); the filter restarts on a new or rescaled map.
   void filterPublishedPose(FrameResult* result);
+  /// The map became metric from the altimeter (at `c_world_m`, the scale's relative 1-sigma): the map's
+  /// drift starts from the handed-over pose's uncertainty, or goes on with the new scale's sigma.
+  void startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma);
 
   VoConfig config_;
   PinholeCamera camera_;
@@ -266,11 +270,11 @@ class Pipeline {
   KeyframeTracker keyframe_tracker_;  ///< map.keyframe_features > 0
   MotionFilter motion_filter_;        ///< motion_filter.enabled, vision only
   bool motion_filter_metric_scale_ = false;  ///< the map's scale when the filter last ran
-  /// A metric map's drift that the filter cannot see (mapDriftVelocityCovariance()): the relative 1-sigma of
-  /// its scale (the altimeter fix's, then the median relative sigma of the last adjustment's range factors)
-  /// and the keyframes inserted since the start (the attitude's random walk).
-  double map_scale_relative_sigma_ = 0.0;
-  int keyframes_since_start_ = 0;
+  /// A metric map's drift that the filter cannot see (vision + altimeter): the covariance it gives the
+  /// navigation, started at the metric fix; the scale's sigma is the altimeter fix's, then the median
+  /// relative sigma of each adjustment's range factors.
+  MapDrift map_drift_;
+  int keyframes_since_start_ = 0;  ///< keyframes that added a pose since the start (the attitude's walk)
   cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
   /// The map-only tracking of the last keyframe when the optimiser runs in its own thread: running in the
   /// background until the next keyframe joins its tracks to that keyframe (keyframe_job_keyframe_id_), just

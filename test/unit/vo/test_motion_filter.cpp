@@ -354,52 +354,6 @@ TEST(MotionFilter, TooFewPointsGiveNoMeasurement) {
   EXPECT_THROW(poseMeasurement(0.0, T, p_world, px, {1, 1}, kFx, kFy, kCx, kCy, 0.05), std::invalid_argument);
 }
 
-// A velocity measured against a map whose scale is off by a relative s and whose attitude is off by a small
-// rotation theta is (1 + s) Exp(theta) v. Draws of both (1 %, 0.2 deg per axis) plus the filter's own error
-// (0.05 m/s per axis) on a main-brake velocity (300 m/s, descending): with mapDriftVelocityCovariance() added,
-// the velocity NEES has its chi-square mean (3); with the filter's covariance alone it is hundreds (the map's
-// error at 300 m/s is metres per second); with the scale or the attitude part left out it is still over 10.
-TEST(MotionFilter, TheMapsDriftAddsItsScaleAlongAndItsAttitudeAcrossTheVelocity) {
-  const Eigen::Vector3d v(250.0, 160.0, -30.0);
-  const double scale_sigma = 0.01, attitude_sigma_rad = 0.2 * M_PI / 180.0, filter_sigma_mps = 0.05;
-  const Eigen::Matrix3d P_filter = filter_sigma_mps * filter_sigma_mps * Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d with_drift = P_filter + mapDriftVelocityCovariance(v, scale_sigma, attitude_sigma_rad);
-  const Eigen::Matrix3d scale_only = P_filter + mapDriftVelocityCovariance(v, scale_sigma, 0.0);
-  const Eigen::Matrix3d attitude_only = P_filter + mapDriftVelocityCovariance(v, 0.0, attitude_sigma_rad);
-  // The parts lie where they should: the scale's along the velocity, the attitude's across it.
-  const Eigen::Vector3d u = v.normalized();
-  EXPECT_NEAR(u.dot(mapDriftVelocityCovariance(v, scale_sigma, 0.0) * u), std::pow(scale_sigma * v.norm(), 2),
-              1e-9);
-  EXPECT_NEAR(u.dot(mapDriftVelocityCovariance(v, 0.0, attitude_sigma_rad) * u), 0.0, 1e-9);
-  const Eigen::Vector3d across = u.cross(Eigen::Vector3d::UnitZ()).normalized();
-  EXPECT_NEAR(across.dot(mapDriftVelocityCovariance(v, 0.0, attitude_sigma_rad) * across),
-              std::pow(attitude_sigma_rad * v.norm(), 2), 1e-9);
-
-  std::mt19937 rng(11);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  constexpr int kDraws = 4000;
-  double nees = 0.0, nees_filter = 0.0, nees_scale_only = 0.0, nees_attitude_only = 0.0;
-  for (int i = 0; i < kDraws; ++i) {
-    const double s = scale_sigma * normal(rng);
-    const Eigen::Vector3d theta(attitude_sigma_rad * normal(rng), attitude_sigma_rad * normal(rng),
-                                attitude_sigma_rad * normal(rng));
-    const Eigen::Vector3d noise(filter_sigma_mps * normal(rng), filter_sigma_mps * normal(rng),
-                                filter_sigma_mps * normal(rng));
-    const Eigen::Vector3d measured = (1.0 + s) * (Eigen::AngleAxisd(theta.norm(), theta.normalized()) * v) + noise;
-    const Eigen::Vector3d e = measured - v;
-    nees += e.dot(with_drift.ldlt().solve(e)) / kDraws;
-    nees_filter += e.dot(P_filter.ldlt().solve(e)) / kDraws;
-    nees_scale_only += e.dot(scale_only.ldlt().solve(e)) / kDraws;
-    nees_attitude_only += e.dot(attitude_only.ldlt().solve(e)) / kDraws;
-  }
-  std::cout << "velocity NEES with the map's drift " << nees << ", the filter's covariance alone " << nees_filter
-            << ", scale part only " << nees_scale_only << ", attitude part only " << nees_attitude_only << "\n";
-  EXPECT_NEAR(nees, 3.0, 0.2);  // standard error of the mean of 4000 chi-square(3) draws: 0.04
-  EXPECT_GT(nees_filter, 100.0);
-  EXPECT_GT(nees_scale_only, 10.0);
-  EXPECT_GT(nees_attitude_only, 10.0);
-}
-
 }  // namespace
 }  // namespace planetary_vo
 

@@ -934,9 +934,10 @@ TEST(Pipeline, AltimeterMakesTheTrajectoryMetricInTheHandedOverFrame) {
   // error. 1 % of the path (about 2 m) would be the bound of a scale error of 1 %.
   EXPECT_LT(final_error_m, 0.01 * path_m);
 
-  // The published velocity's covariance carries the map's drift (mapDriftVelocityCovariance()): the map's
-  // scale, from the altimeter's range factors, along the velocity, and the attitude's random walk across it.
-  // Without the attitude part the estimates are the same to the bit and only the covariance across shrinks.
+  // The published covariance carries the map's drift (vo/map_drift.h): the velocity's, the map's scale from
+  // the altimeter's range factors along it and the attitude's random walk across it; the pose's, the drift
+  // summed along the path. Without the attitude's walk the estimates are the same to the bit and only the
+  // covariance across the velocity shrinks.
   VoConfig no_attitude_drift = config;
   no_attitude_drift.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe = 0.0;
   const SequenceRun without = runSequence(no_attitude_drift, 60, -1, -1, true);
@@ -953,10 +954,21 @@ TEST(Pipeline, AltimeterMakesTheTrajectoryMetricInTheHandedOverFrame) {
     const Eigen::Vector3d across = u.cross(Eigen::Vector3d::UnitX()).normalized();
     const Eigen::Matrix3d added = a.v_covariance - b.v_covariance;
     EXPECT_NEAR(u.dot(added * u), 0.0, 1e-12 * a.v_world.squaredNorm()) << "frame " << i;
-    EXPECT_NEAR(across.dot(added * across), std::pow(a.map_attitude_sigma_rad * a.v_world.norm(), 2),
+    EXPECT_NEAR(across.dot(added * across),
+                (std::pow(a.map_attitude_sigma_rad, 2) - std::pow(b.map_attitude_sigma_rad, 2)) *
+                    a.v_world.squaredNorm(),
                 1e-9 * a.v_world.squaredNorm())
         << "frame " << i;
-    EXPECT_GT(a.map_attitude_sigma_rad, 0.0) << "frame " << i;
+    EXPECT_GT(a.map_attitude_sigma_rad, b.map_attitude_sigma_rad) << "frame " << i;
+    // The pose covariance: positive definite, and the position's 1-sigma at least the handed-over 1 m.
+    const FrameResult& r = run.results[i];
+    ASSERT_TRUE(r.has_covariance) << "frame " << i;
+    const Eigen::Matrix3d velocity_block = r.covariance.bottomRightCorner<3, 3>();
+    EXPECT_EQ(velocity_block, a.v_covariance) << "frame " << i;
+    const Eigen::LLT<Eigen::Matrix<double, 9, 9>> llt(r.covariance);
+    EXPECT_EQ(llt.info(), Eigen::Success) << "frame " << i;
+    const double min_position_variance = r.covariance.topLeftCorner<3, 3>().diagonal().minCoeff();
+    EXPECT_GE(min_position_variance, 1.0) << "frame " << i;
     // The scale's 1-sigma: at least one reading's noise (0.3 m + 2e-4 of about 500 m) over its range, at most
     // a few percent; the covariance along the velocity holds at least that much.
     EXPECT_GT(a.map_scale_relative_sigma, 8e-4) << "frame " << i;
