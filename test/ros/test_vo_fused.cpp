@@ -17,6 +17,8 @@
 ///                                      at the IMU rate, not confident (pose sigma over ~min_dead_reckoning_sigma_m)
 ///   ~min_dead_reckoning_sigma_m (double, 1)
 ///   ~max_position_error_m (double)     bound on every nav/odometry position error (m)
+///   ~max_mean_position_nees (double, 0: not checked)  bound on the mean position NEES of nav/odometry
+///                                      (its pose covariance against the error; 3 is consistent)
 ///   ~max_velocity_error_mps (double)   bound on every nav/odometry velocity error (m/s)
 ///   ~min_rate_fraction (double, 0.8)   nav/odometry stamps per second / IMU rate (image rate without the
 ///                                      IMU), from the first output on
@@ -32,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/PoseStamped.h>
@@ -59,6 +62,7 @@ class VoFusedTest : public ::testing::Test {
     expect_vision_ = pnh.param("expect_vision", true);
     min_dead_reckoning_sigma_m_ = pnh.param("min_dead_reckoning_sigma_m", 1.0);
     max_position_error_m_ = pnh.param("max_position_error_m", 5.0);
+    max_mean_position_nees_ = pnh.param("max_mean_position_nees", 0.0);
     max_velocity_error_mps_ = pnh.param("max_velocity_error_mps", 1.0);
     min_rate_fraction_ = pnh.param("min_rate_fraction", 0.8);
     max_first_output_s_ = pnh.param("max_first_output_s", 2.0);
@@ -119,6 +123,7 @@ class VoFusedTest : public ::testing::Test {
   ros::NodeHandle nh_;
   std::string dataset_dir_, expect_mode_, manager_, player_;
   double max_position_error_m_ = 5.0, max_velocity_error_mps_ = 1.0, min_rate_fraction_ = 0.8;
+  double max_mean_position_nees_ = 0.0;
   double max_first_output_s_ = 2.0, timeout_s_ = 90.0;
   bool expect_inertial_ = true, expect_vision_ = true;
   double min_dead_reckoning_sigma_m_ = 1.0;
@@ -211,7 +216,7 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
   // Errors against the ground truth, no alignment: position of the camera (the child frame here), and the
   // velocity (twist in the child frame, rotated back into the world).
   double max_dp = 0.0, max_dv = 0.0, sum_dp2 = 0.0, sum_dv2 = 0.0, t_max_dp = 0.0, t_max_dv = 0.0;
-  double end_dp = 0.0, end_dv = 0.0;
+  double end_dp = 0.0, end_dv = 0.0, sum_position_nees = 0.0;
   size_t unknown_velocity = 0, known_velocity = 0;
   for (const auto& m : nav_) {
     const double t = toDatasetTime(epoch_, m.header.stamp);
@@ -231,6 +236,11 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
     if (!expect_vision_) {
       EXPECT_GT(m.pose.covariance[0], min_dead_reckoning_sigma_m_ * min_dead_reckoning_sigma_m_) << "at " << t;
     }
+    Eigen::Matrix3d P;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) P(r, c) = m.pose.covariance[6 * r + c];
+    const Eigen::Vector3d e = truth.T_world_body.translation() - T.translation();
+    sum_position_nees += e.dot(P.ldlt().solve(e));
     sum_dp2 += dp * dp;
     if (dp > max_dp) max_dp = dp, t_max_dp = t;
     end_dp = dp;
@@ -258,6 +268,9 @@ TEST_F(VoFusedTest, MetricNavigationAtTheImuRateWithoutAlignment) {
       t_max_dv, end_dv);
   EXPECT_LT(max_dp, max_position_error_m_);
   EXPECT_LT(max_dv, max_velocity_error_mps_);
+  std::printf("vo_fused: mean position NEES %.3f over %zu nav/odometry messages\n", sum_position_nees / n,
+              nav_.size());
+  if (max_mean_position_nees_ > 0.0) EXPECT_LT(sum_position_nees / n, max_mean_position_nees_);
 }
 
 }  // namespace
