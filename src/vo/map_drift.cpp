@@ -4,14 +4,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "planetary_vo/fusion/imu_preintegration.h"  // skew()
+
 namespace planetary_vo {
 namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
 
 /// The velocity error's Jacobian on [theta, s]: dv = s v + theta x v.
 Eigen::Matrix<double, 3, 4> velocityJacobian(const Eigen::Vector3d& v) {

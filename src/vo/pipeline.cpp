@@ -815,13 +815,14 @@ void Pipeline::startMapDrift(const Eigen::Vector3d& c_world_m, double relative_s
     return;
   }
   MapDrift::Matrix6d start = MapDrift::Matrix6d::Zero();
-  if (initial_pose_given_) {  // the handed-over pose's claimed uncertainty; else the world is the first camera
+  if (initial_pose_given_) {  // the handed-over pose's claimed uncertainty; else the world is the first
+                              // camera
     start.topLeftCorner<3, 3>().diagonal().setConstant(std::pow(config_.imu.initial_position_sigma_m, 2));
     start.bottomRightCorner<3, 3>().diagonal().setConstant(
         std::pow(config_.imu.initial_attitude_sigma_deg * M_PI / 180.0, 2));
   }
-  map_drift_.start(T_world_cam_initial_.translation(), c_world_m, keyframes_since_start_, relative_scale_sigma,
-                   start);
+  map_drift_.start(T_world_cam_initial_.translation(), c_world_m, keyframes_since_start_,
+                   relative_scale_sigma, start);
 }
 
 void Pipeline::startRecovery() {

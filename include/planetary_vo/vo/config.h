@@ -220,10 +220,9 @@ struct MotionFilterConfig {
   /// docs/visual_core.md step 17 (held out: velocity error lower on 46 of 53 renders).
   bool move_with_map = true;
   /// A metric map's attitude drifts (vision has no gravity): a random walk of this 1-sigma per axis per
-  /// keyframe inserted. The published velocity of a metric map (vision + altimeter) carries it, times the speed,
-  /// across the velocity, and the scale's uncertainty along it (mapDriftVelocityCovariance()); the filter itself
-  /// is unchanged. 0.01: the attitude drift of the three benchmark main brakes with the altimeter
-  /// (docs/visual_core.md step 19).
+  /// keyframe inserted. The published covariance of a metric map (vision + altimeter) carries it with the
+  /// scale's uncertainty (vo/map_drift.h); the filter itself is unchanged. 0.01: the attitude drift of the
+  /// three benchmark main brakes with the altimeter (docs/visual_core.md steps 19-20).
   double map_attitude_drift_deg_per_sqrt_keyframe = 0.01;
 };
 

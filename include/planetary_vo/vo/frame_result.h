@@ -85,9 +85,8 @@ struct FilteredMotion {
   Eigen::Vector3d omega_world = Eigen::Vector3d::Zero();  ///< angular rate, world frame, rad/s
   Eigen::Matrix3d omega_covariance = Eigen::Matrix3d::Zero();
   Eigen::Vector3d a_world = Eigen::Vector3d::Zero();  ///< acceleration (constant_acceleration), units/s^2
-  /// A metric map's drift that v_covariance carries besides the filter's own (mapDriftVelocityCovariance();
-  /// both 0 before the map is metric): the relative 1-sigma of its scale and the 1-sigma per axis of its
-  /// attitude.
+  /// A metric map's drift that v_covariance carries besides the filter's own (vo/map_drift.h; both 0 before
+  /// the map is metric): the relative 1-sigma of its scale and the 1-sigma per axis of its attitude.
   double map_scale_relative_sigma = 0.0;
   double map_attitude_sigma_rad = 0.0;
 };

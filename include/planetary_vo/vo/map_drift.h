@@ -63,7 +63,7 @@ class MapDrift {
 
  private:
   using Matrix7d = Eigen::Matrix<double, 7, 7>;
-  double attitude_q_rad2_ = 0.0;  ///< variance per axis per keyframe
+  double attitude_q_rad2_ = 0.0;    ///< variance per axis per keyframe
   double scale_correlation_ = 0.0;  ///< per keyframe
   bool running_ = false;
   Eigen::Vector3d c_last_ = Eigen::Vector3d::Zero();

@@ -8,8 +8,8 @@
 #include <random>
 #include <stdexcept>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "planetary_vo/vo/map_drift.h"
 
@@ -20,7 +20,8 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 Eigen::Matrix3d rotation(const Eigen::Vector3d& theta) {
   const double angle = theta.norm();
-  return angle > 0.0 ? Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  return angle > 0.0 ? Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix()
+                     : Eigen::Matrix3d::Identity();
 }
 
 // A velocity measured against a map whose scale is off by a relative s and whose attitude is off by a small
@@ -65,8 +66,9 @@ TEST(MapDrift, TheMapsScaleLiesAlongTheVelocityAndItsAttitudeAcrossIt) {
     nees_scale_only += e.dot(scale_only.ldlt().solve(e)) / kDraws;
     nees_attitude_only += e.dot(attitude_only.ldlt().solve(e)) / kDraws;
   }
-  std::cout << "velocity NEES with the map's drift " << nees << ", the filter's covariance alone " << nees_filter
-            << ", scale part only " << nees_scale_only << ", attitude part only " << nees_attitude_only << "\n";
+  std::cout << "velocity NEES with the map's drift " << nees << ", the filter's covariance alone "
+            << nees_filter << ", scale part only " << nees_scale_only << ", attitude part only "
+            << nees_attitude_only << "\n";
   EXPECT_NEAR(nees, 3.0, 0.2);  // standard error of the mean of 4000 chi-square(3) draws: 0.04
   EXPECT_GT(nees_filter, 100.0);
   EXPECT_GT(nees_scale_only, 10.0);
@@ -104,7 +106,9 @@ TEST(MapDrift, ThePositionErrorOfADescentOverADriftingMapMatchesItsCovariance) {
 
   std::mt19937 rng(5);
   std::normal_distribution<double> normal(0.0, 1.0);
-  auto vec = [&](double sigma) { return Eigen::Vector3d(sigma * Eigen::Vector3d(normal(rng), normal(rng), normal(rng))); };
+  auto vec = [&](double sigma) {
+    return Eigen::Vector3d(sigma * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)));
+  };
   double nees_p = 0.0, nees_a = 0.0, nees_pose = 0.0, nees_start_only = 0.0;
   for (int i = 0; i < kDraws; ++i) {
     Eigen::Vector3d e_p = vec(p0_sigma);
@@ -127,10 +131,11 @@ TEST(MapDrift, ThePositionErrorOfADescentOverADriftingMapMatchesItsCovariance) {
     nees_pose += e.dot(P.ldlt().solve(e)) / kDraws;
     nees_start_only += e_p.dot(start.topLeftCorner<3, 3>().ldlt().solve(e_p)) / kDraws;
   }
-  std::cout << "end of the descent: position NEES " << nees_p << ", attitude " << nees_a << ", pose " << nees_pose
-            << " (position 1-sigma " << std::sqrt(P.topLeftCorner<3, 3>().trace()) << " m); start only "
-            << nees_start_only << "\n";
-  // Standard errors of the means of 3000 draws: 0.045 (3 dof), 0.063 (6 dof); the linearisation adds a little.
+  std::cout << "end of the descent: position NEES " << nees_p << ", attitude " << nees_a << ", pose "
+            << nees_pose << " (position 1-sigma " << std::sqrt(P.topLeftCorner<3, 3>().trace())
+            << " m); start only " << nees_start_only << "\n";
+  // Standard errors of the means of 3000 draws: 0.045 (3 dof), 0.063 (6 dof); the linearisation adds a
+  // little.
   EXPECT_NEAR(nees_p, 3.0, 0.25);
   EXPECT_NEAR(nees_a, 3.0, 0.25);
   EXPECT_NEAR(nees_pose, 6.0, 0.4);
