@@ -11,9 +11,9 @@ configuration, scores the trajectory with vo_eval and prints one table:
   alignment          scale of the velocity over the first FIRST_SCALE_WINDOW_S seconds): error at the end (the
                      low gate) in m and in % of the distance travelled, velocity error RMS, tilt error at the end
   ATE unaligned,     metric rows only: the ATE RMSE in m without any alignment, and the mean NEES of position, of
-  NEES pos / att /   attitude (rows with a pose covariance: imu, fused) and of the velocity (rows whose velocity
-  vel                comes with a covariance: altimeter, the motion filter's); 3 dof each, a consistent covariance
-                     gives 3; "-" for the monocular VO (no metric scale)
+  NEES pos / att /   attitude (rows with a pose covariance: imu, fused, altimeter) and of the velocity (rows
+  vel                whose velocity comes with a covariance: altimeter, the motion filter's); 3 dof each, a
+                     consistent covariance gives 3; "-" for the monocular VO (no metric scale)
   posed              frames whose pose was estimated (TRACKING or RECOVERED) / processed frames
   mark               correct: Sim(3) ATE <= 1 % and attitude drift <= 0.5 deg; partial: ATE <= 5 %; failed: worse,
                      or fewer than 90 % of the frames posed (lost)
@@ -604,7 +604,7 @@ def write_docs(tables, results, args):
              "scored without any alignment, velocity error of the motion filter's velocity, and the `lunar_imu` / `lunar_fused` rows (camera + IMU, with the "
              "altimeter): handed the first true pose and velocity, scored without any alignment, velocity error "
              "of the estimator's own velocity; ATE unaligned = ATE RMSE in m without any alignment (metric rows), "
-             "NEES pos / att / vel = mean NEES of position and attitude (rows with a pose covariance: imu, fused) "
+             "NEES pos / att / vel = mean NEES of position and attitude (rows with a pose covariance: imu, fused, altimeter) "
              "and of the velocity (rows whose velocity has a covariance: altimeter, the motion filter's), 3 dof "
              "each, 3 when consistent; posed = frames with an estimated pose "
              "(TRACKING or RECOVERED, not coasted) / processed frames.",
