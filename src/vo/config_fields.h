@@ -160,6 +160,7 @@ void mapFields(C& c, V& v) {
   v("window_keyframes", c.window_keyframes, 2, 1000);
   v("keyframe_features", c.keyframe_features, 0, 100000);
   v("keyframe_anchor_max_age", c.keyframe_anchor_max_age, 1, 100000);
+  v("attitude_drift_deg_per_sqrt_keyframe", c.attitude_drift_deg_per_sqrt_keyframe, 0.0, 10.0);
 }
 
 template <class C, class V>
@@ -186,7 +187,6 @@ void motionFilterFields(C& c, V& v) {
   v("gate_nis", c.gate_nis, 1.0, 1e9);
   v("max_gap_s", c.max_gap_s, 1e-3, 1e3);
   v("move_with_map", c.move_with_map);
-  v("map_attitude_drift_deg_per_sqrt_keyframe", c.map_attitude_drift_deg_per_sqrt_keyframe, 0.0, 10.0);
 }
 
 template <class C, class V>

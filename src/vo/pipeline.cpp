@@ -128,7 +128,7 @@ Pipeline::Pipeline(const VoConfig& config, const PinholeCamera& camera)
       keyframe_tracker_(config.map.keyframe_features, config.map.keyframe_anchor_max_age, config.tracker,
                         config.detector),
       motion_filter_(config.motion_filter),
-      map_drift_(config.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe * M_PI / 180.0,
+      map_drift_(config.map.attitude_drift_deg_per_sqrt_keyframe * M_PI / 180.0,
                  config.bundle_adjustment.window_keyframes),
       altimeter_(config.altimeter),
       inertial_(config.imu),
@@ -408,6 +408,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   else
     processMap(start, &result);
   fillInertialOutput(&result);
+  addMapDriftToInertialOutput(&result);
   filterPublishedPose(&result);
 
   T_world_cam_ = result.T_world_cam;
@@ -431,6 +432,7 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
       stage_ == PipelineStage::kInitialising ? TrackingState::kInitialising : TrackingState::kLost;
   holdPose(result, why);
   fillInertialOutput(result);
+  addMapDriftToInertialOutput(result);
   keepNavState(*result);  // a refused image too: without a map yet, the IMU's dead reckoning goes on from it
   T_world_cam_ = result->T_world_cam;
   state_ = result->state;
@@ -810,6 +812,7 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
 }
 
 void Pipeline::startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma) {
+  if (inertialActive()) return;  // addMapDriftToInertialOutput()
   if (map_drift_.running()) {  // a new fix of a map that was metric already: the drift goes on
     map_drift_.setScaleSigma(relative_scale_sigma);
     return;
@@ -1016,7 +1019,8 @@ void Pipeline::runBundleAdjustment(FrameResult* result) {
   if (async_ba_)
     if (const auto covariances = async_ba_->takeCovariance()) map_.applyCovariances(*covariances);
   const std::vector<BaRangeObservation> ranges = altimeterRanges();
-  if (!ranges.empty()) map_drift_.setScaleSigma(medianRelativeRangeSigma(ranges));
+  // (With the IMU the scale is held by the accelerometer as well: the drift's scale term stays zero.)
+  if (!ranges.empty() && !inertialActive()) map_drift_.setScaleSigma(medianRelativeRangeSigma(ranges));
   // The window with `num_fixed` oldest keyframes fixed, and the ranges of its free keyframes.
   auto makeProblem = [&](int num_fixed) {
     BaProblem p = map_.makeBaProblem(config_.bundle_adjustment.window_keyframes, num_fixed, camera_.fx(),
@@ -1442,6 +1446,23 @@ void Pipeline::fillInertialOutput(FrameResult* result) const {
   result->inertial_only = stage_ == PipelineStage::kInitialising &&
                           result->state == TrackingState::kInitialising &&
                           config_.pipeline.trajectory_mode == TrajectoryMode::kMap;
+}
+
+void Pipeline::addMapDriftToInertialOutput(FrameResult* result) {
+  // The window's covariance holds its oldest state under the covariance that state had when it was the
+  // newest, so it misses what the chain of such anchors lets the map's attitude walk (docs/fusion/README.md,
+  // "Covariance"): the drift of the map since the first covariance, summed along the path, is added to it.
+  if (!inertialActive() || !result->has_covariance || !metric_scale_ || result->inertial_only) return;
+  const Eigen::Vector3d c_world = result->T_world_cam.translation();
+  if (!map_drift_.running()) map_drift_.start(c_world, c_world, 0, 0.0, MapDrift::Matrix6d::Zero());
+  map_drift_.moveTo(c_world);
+  result->covariance.topLeftCorner<6, 6>() += map_drift_.poseCovariance();
+  if (result->has_velocity) {
+    result->covariance.bottomRightCorner<3, 3>() += map_drift_.velocityCovariance(result->v_world_mps);
+    const Eigen::Matrix<double, 3, 6> cross = map_drift_.velocityPoseCovariance(result->v_world_mps);
+    result->covariance.block<3, 6>(6, 0) += cross;
+    result->covariance.block<6, 3>(0, 6) += cross.transpose();
+  }
 }
 
 }  // namespace planetary_vo

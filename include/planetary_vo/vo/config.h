@@ -170,6 +170,11 @@ struct MapConfig {
   /// A map-only track's anchor patch is cut again after this many keyframes (the view changes the ground's
   /// appearance; 1 = each keyframe aligns the previous one's patch).
   int keyframe_anchor_max_age = 3;
+  /// The map's attitude drifts: a random walk of this 1-sigma per axis per keyframe inserted. The published
+  /// covariance of a metric navigation carries it (vo/map_drift.h: vision + altimeter, with the scale's
+  /// uncertainty; camera + IMU, on top of the window's covariance); no estimate reads it. 0.01: the attitude
+  /// drift of the benchmark main brakes (docs/visual_core.md steps 19-21).
+  double attitude_drift_deg_per_sqrt_keyframe = 0.01;
 };
 
 /// Frame-to-map pose by EPnP inside RANSAC.
@@ -219,11 +224,6 @@ struct MotionFilterConfig {
   /// frame's pose, taken against the moved map, reads the move as motion). The default since
   /// docs/visual_core.md step 17 (held out: velocity error lower on 46 of 53 renders).
   bool move_with_map = true;
-  /// A metric map's attitude drifts (vision has no gravity): a random walk of this 1-sigma per axis per
-  /// keyframe inserted. The published covariance of a metric map (vision + altimeter) carries it with the
-  /// scale's uncertainty (vo/map_drift.h); the filter itself is unchanged. 0.01: the attitude drift of the
-  /// three benchmark main brakes with the altimeter (docs/visual_core.md steps 19-20).
-  double map_attitude_drift_deg_per_sqrt_keyframe = 0.01;
 };
 
 enum class RobustLoss { kNone, kHuber, kCauchy };

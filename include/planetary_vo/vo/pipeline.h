@@ -258,6 +258,9 @@ class Pipeline {
   /// The map became metric from the altimeter (at `c_world_m`, the scale's relative 1-sigma): the map's
   /// drift starts from the handed-over pose's uncertainty, or goes on with the new scale's sigma.
   void startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma);
+  /// Camera + IMU: the map's attitude walk since the first covariance, summed along the path, added to the
+  /// covariance fillInertialOutput() gave (vo/map_drift.h; no scale term: the accelerometer holds it).
+  void addMapDriftToInertialOutput(FrameResult* result);
 
   VoConfig config_;
   PinholeCamera camera_;

@@ -112,6 +112,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.map.cull_min_found_ratio, 0.3);
   EXPECT_EQ(c.map.window_keyframes, 12);
   EXPECT_EQ(c.map.keyframe_features, 250);
+  EXPECT_DOUBLE_EQ(c.map.attitude_drift_deg_per_sqrt_keyframe, 0.05);
   EXPECT_EQ(c.map.keyframe_anchor_max_age, 2);
 
   EXPECT_DOUBLE_EQ(c.pnp.ransac_reprojection_error_px, 4.0);
@@ -132,7 +133,6 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.motion_filter.gate_nis, 40.0);
   EXPECT_DOUBLE_EQ(c.motion_filter.max_gap_s, 0.5);
   EXPECT_FALSE(c.motion_filter.move_with_map);
-  EXPECT_DOUBLE_EQ(c.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe, 0.05);
 
   EXPECT_FALSE(c.bundle_adjustment.enabled);
   EXPECT_EQ(c.bundle_adjustment.window_keyframes, 8);

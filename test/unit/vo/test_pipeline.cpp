@@ -939,7 +939,7 @@ TEST(Pipeline, AltimeterMakesTheTrajectoryMetricInTheHandedOverFrame) {
   // summed along the path. Without the attitude's walk the estimates are the same to the bit and only the
   // covariance across the velocity shrinks.
   VoConfig no_attitude_drift = config;
-  no_attitude_drift.motion_filter.map_attitude_drift_deg_per_sqrt_keyframe = 0.0;
+  no_attitude_drift.map.attitude_drift_deg_per_sqrt_keyframe = 0.0;
   const SequenceRun without = runSequence(no_attitude_drift, 60, -1, -1, true);
   ASSERT_EQ(without.results.size(), run.results.size());
   int filtered = 0;
