@@ -176,6 +176,7 @@ void Pipeline::reset() {
   first_map_depth_ = 0.0;
   frames_since_keyframe_ = 0;
   map_drift_.reset();
+  frame_pose_covariance_.setZero();
   keyframes_since_start_ = 0;
   reference_.valid = false;
   last_good_.valid = false;
@@ -410,6 +411,7 @@ FrameResult Pipeline::process(double timestamp_s, const cv::Mat& gray) {
   fillInertialOutput(&result);
   addMapDriftToInertialOutput(&result);
   filterPublishedPose(&result);
+  addMapDriftToAltimeterOutput(&result);
 
   T_world_cam_ = result.T_world_cam;
   state_ = result.state;
@@ -433,6 +435,7 @@ FrameResult Pipeline::refuseInput(const std::string& why, Clock::time_point star
   holdPose(result, why);
   fillInertialOutput(result);
   addMapDriftToInertialOutput(result);
+  addMapDriftToAltimeterOutput(result);
   keepNavState(*result);  // a refused image too: without a map yet, the IMU's dead reckoning goes on from it
   T_world_cam_ = result->T_world_cam;
   state_ = result->state;
@@ -789,14 +792,22 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
   const FilteredPose filtered = motion_filter_.update(m);
   result->T_world_cam = filtered.T_world_cam;
   result->filtered_motion = filtered.motion;
+  frame_pose_covariance_ = m.covariance;
+}
+
+void Pipeline::addMapDriftToAltimeterOutput(FrameResult* result) {
   // In metres (vision + altimeter) the pose and velocity are the navigation's, and guidance reads their
-  // covariance: the frame's own (how well it sits in the map) plus the map's drift (how well the map sits in
-  // the world), which the filter, posed against the map at every frame, cannot see.
-  if (!metric_scale_ || !map_drift_.running()) return;
+  // covariance: the frame's own (how well it sits in the map: the last frame measured, for a frame that
+  // coasts) plus the map's drift (how well the map sits in the world), which the filter, posed against the
+  // map at every frame, cannot see. A frame that coasts gets it too, so that its covariance does not shrink
+  // (the nodelet inflates it further as not confident).
+  if (inertialActive() || !metric_scale_ || !map_drift_.running() || !config_.motion_filter.enabled ||
+      config_.pipeline.trajectory_mode != TrajectoryMode::kMap || frame_pose_covariance_.isZero())
+    return;
   map_drift_.moveTo(result->T_world_cam.translation());
   result->has_covariance = true;
   result->covariance.setZero();
-  result->covariance.topLeftCorner<6, 6>() = map_drift_.poseCovariance() + m.covariance;
+  result->covariance.topLeftCorner<6, 6>() = map_drift_.poseCovariance() + frame_pose_covariance_;
   FilteredMotion& motion = result->filtered_motion;
   if (motion.valid) {
     motion.v_covariance += map_drift_.velocityCovariance(motion.v_world);
@@ -813,7 +824,7 @@ void Pipeline::filterPublishedPose(FrameResult* result) {
 
 void Pipeline::startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma) {
   if (inertialActive()) return;  // addMapDriftToInertialOutput()
-  if (map_drift_.running()) {  // a new fix of a map that was metric already: the drift goes on
+  if (map_drift_.running()) {    // a new fix of a map that was metric already: the drift goes on
     map_drift_.setScaleSigma(relative_scale_sigma);
     return;
   }

@@ -261,6 +261,9 @@ class Pipeline {
   /// Camera + IMU: the map's attitude walk since the first covariance, summed along the path, added to the
   /// covariance fillInertialOutput() gave (vo/map_drift.h; no scale term: the accelerometer holds it).
   void addMapDriftToInertialOutput(FrameResult* result);
+  /// Vision + altimeter, a metric map, the motion filter on: the covariance of every frame from the last
+  /// measurement's and the map's drift; the velocity's drift when the filter gives a velocity.
+  void addMapDriftToAltimeterOutput(FrameResult* result);
 
   VoConfig config_;
   PinholeCamera camera_;
@@ -278,6 +281,8 @@ class Pipeline {
   /// relative sigma of each adjustment's range factors.
   MapDrift map_drift_;
   int keyframes_since_start_ = 0;  ///< keyframes that added a pose since the start (the attitude's walk)
+  /// The covariance of the last frame the motion filter measured (vision + altimeter): the frame's own part.
+  Eigen::Matrix<double, 6, 6> frame_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   cv::Mat current_image_;             ///< the image being processed (as tracked), within process() only
   /// The map-only tracking of the last keyframe when the optimiser runs in its own thread: running in the
   /// background until the next keyframe joins its tracks to that keyframe (keyframe_job_keyframe_id_), just

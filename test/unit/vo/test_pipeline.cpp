@@ -994,6 +994,32 @@ TEST(Pipeline, AltimeterMakesTheTrajectoryMetricInTheHandedOverFrame) {
       0.1 * path_m);
 }
 
+// Vision + altimeter through a tracking loss (frames 30-34 noise): the frames that coast still carry the
+// covariance (the last measured frame's plus the map's drift), never smaller than before the loss, so that
+// nav/odometry does not look more certain while vision is lost.
+TEST(Pipeline, AMetricPoseThatCoastsKeepsItsCovariance) {
+  VoConfig config;
+  config.altimeter.enabled = true;
+  const SequenceRun run = runSequence(config, 50, 30, 35, true);
+  double last_tracked_variance = 0.0;
+  int coasting = 0;
+  bool measured = false;  // the first metric frame (the initialisation) has no measured frame yet
+  for (const FrameResult& r : run.results) {
+    if (!r.metric_scale) continue;
+    measured = measured || r.has_covariance;
+    if (!measured) continue;
+    ASSERT_TRUE(r.has_covariance) << r.frame_index << ": " << r.message;
+    const double variance = r.covariance.topLeftCorner<3, 3>().trace();
+    if (r.hasPoseEstimate()) {
+      last_tracked_variance = variance;
+    } else if (last_tracked_variance > 0.0) {
+      ++coasting;
+      EXPECT_GE(variance, last_tracked_variance) << r.frame_index << ": " << r.message;
+    }
+  }
+  EXPECT_GE(coasting, 3);
+}
+
 /// Position and velocity errors of a metric run against the truth, without any alignment.
 struct MetricErrors {
   double final_position_m = 0.0, final_velocity_mps = 0.0, max_velocity_mps = 0.0, path_m = 0.0;
