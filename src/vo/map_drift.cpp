@@ -83,6 +83,15 @@ Eigen::Matrix<double, 3, 6> MapDrift::velocityPoseCovariance(const Eigen::Vector
   return velocityJacobian(v_world_mps) * P_.block<4, 6>(3, 0);
 }
 
+void MapDrift::addTo(Eigen::Matrix<double, 9, 9>* covariance, const Eigen::Vector3d* v_world_mps) const {
+  covariance->topLeftCorner<6, 6>() += poseCovariance();
+  if (v_world_mps == nullptr) return;
+  covariance->bottomRightCorner<3, 3>() += velocityCovariance(*v_world_mps);
+  const Eigen::Matrix<double, 3, 6> cross = velocityPoseCovariance(*v_world_mps);
+  covariance->block<3, 6>(6, 0) += cross;
+  covariance->block<6, 3>(0, 6) += cross.transpose();
+}
+
 double MapDrift::relativeScaleSigma() const { return std::sqrt(P_(6, 6)); }
 
 double MapDrift::attitudeSigmaRad() const { return std::sqrt(P_.block<3, 3>(3, 3).trace() / 3.0); }

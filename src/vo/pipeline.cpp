@@ -807,19 +807,18 @@ void Pipeline::addMapDriftToAltimeterOutput(FrameResult* result) {
   map_drift_.moveTo(result->T_world_cam.translation());
   result->has_covariance = true;
   result->covariance.setZero();
-  result->covariance.topLeftCorner<6, 6>() = map_drift_.poseCovariance() + frame_pose_covariance_;
+  result->covariance.topLeftCorner<6, 6>() = frame_pose_covariance_;
   FilteredMotion& motion = result->filtered_motion;
-  if (motion.valid) {
-    motion.v_covariance += map_drift_.velocityCovariance(motion.v_world);
-    motion.map_scale_relative_sigma = map_drift_.relativeScaleSigma();
-    motion.map_attitude_sigma_rad = map_drift_.attitudeSigmaRad();
-    result->covariance.bottomRightCorner<3, 3>() = motion.v_covariance;
-    const Eigen::Matrix<double, 3, 6> cross = map_drift_.velocityPoseCovariance(motion.v_world);
-    result->covariance.block<3, 6>(6, 0) = cross;
-    result->covariance.block<6, 3>(0, 6) = cross.transpose();
-  } else {
+  if (!motion.valid) {
     result->covariance.bottomRightCorner<3, 3>() = kUnknownVelocityVariance * Eigen::Matrix3d::Identity();
+    map_drift_.addTo(&result->covariance, nullptr);
+    return;
   }
+  result->covariance.bottomRightCorner<3, 3>() = motion.v_covariance;
+  map_drift_.addTo(&result->covariance, &motion.v_world);
+  motion.v_covariance = result->covariance.bottomRightCorner<3, 3>();
+  motion.map_scale_relative_sigma = map_drift_.relativeScaleSigma();
+  motion.map_attitude_sigma_rad = map_drift_.attitudeSigmaRad();
 }
 
 void Pipeline::startMapDrift(const Eigen::Vector3d& c_world_m, double relative_scale_sigma) {
@@ -1467,13 +1466,7 @@ void Pipeline::addMapDriftToInertialOutput(FrameResult* result) {
   const Eigen::Vector3d c_world = result->T_world_cam.translation();
   if (!map_drift_.running()) map_drift_.start(c_world, c_world, 0, 0.0, MapDrift::Matrix6d::Zero());
   map_drift_.moveTo(c_world);
-  result->covariance.topLeftCorner<6, 6>() += map_drift_.poseCovariance();
-  if (result->has_velocity) {
-    result->covariance.bottomRightCorner<3, 3>() += map_drift_.velocityCovariance(result->v_world_mps);
-    const Eigen::Matrix<double, 3, 6> cross = map_drift_.velocityPoseCovariance(result->v_world_mps);
-    result->covariance.block<3, 6>(6, 0) += cross;
-    result->covariance.block<6, 3>(0, 6) += cross.transpose();
-  }
+  map_drift_.addTo(&result->covariance, result->has_velocity ? &result->v_world_mps : nullptr);
 }
 
 }  // namespace planetary_vo

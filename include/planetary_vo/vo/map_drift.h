@@ -58,6 +58,9 @@ class MapDrift {
   Eigen::Matrix3d velocityCovariance(const Eigen::Vector3d& v_world_mps) const;
   /// Cross-covariance of that velocity error with the pose error [position, attitude] (3x6).
   Eigen::Matrix<double, 3, 6> velocityPoseCovariance(const Eigen::Vector3d& v_world_mps) const;
+  /// Adds the drift to a navigation covariance [position, attitude, velocity] (9x9): the pose's, and with a
+  /// velocity `v_world_mps` (nullptr: none) the velocity's and its cross-covariance with the pose.
+  void addTo(Eigen::Matrix<double, 9, 9>* covariance, const Eigen::Vector3d* v_world_mps) const;
   double relativeScaleSigma() const;
   double attitudeSigmaRad() const;
 

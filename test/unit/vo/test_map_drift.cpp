@@ -9,20 +9,14 @@
 #include <stdexcept>
 
 #include <gtest/gtest.h>
-#include <Eigen/Geometry>
 
+#include "planetary_vo/fusion/imu_preintegration.h"  // expSO3()
 #include "planetary_vo/vo/map_drift.h"
 
 namespace planetary_vo {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
-
-Eigen::Matrix3d rotation(const Eigen::Vector3d& theta) {
-  const double angle = theta.norm();
-  return angle > 0.0 ? Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix()
-                     : Eigen::Matrix3d::Identity();
-}
 
 // A velocity measured against a map whose scale is off by a relative s and whose attitude is off by a small
 // rotation theta is (1 + s) Exp(theta) v. Draws of both (1 %, 0.2 deg per axis) plus the filter's own error
@@ -60,7 +54,7 @@ TEST(MapDrift, TheMapsScaleLiesAlongTheVelocityAndItsAttitudeAcrossIt) {
     const double s = scale_sigma * normal(rng);
     const Eigen::Vector3d theta = attitude_sigma_rad * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
     const Eigen::Vector3d noise = filter_sigma_mps * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-    const Eigen::Vector3d e = (1.0 + s) * (rotation(theta) * v) + noise - v;
+    const Eigen::Vector3d e = (1.0 + s) * (expSO3(theta) * v) + noise - v;
     nees += e.dot(with_drift.ldlt().solve(e)) / kDraws;
     nees_filter += e.dot(P_filter.ldlt().solve(e)) / kDraws;
     nees_scale_only += e.dot(scale_only.ldlt().solve(e)) / kDraws;
@@ -115,7 +109,7 @@ TEST(MapDrift, ThePositionErrorOfADescentOverADriftingMapMatchesItsCovariance) {
     Eigen::Vector3d theta = vec(a0_sigma);
     for (int kf = 0; kf < keyframes_at_fix; ++kf) theta += vec(q_rad);
     double s = scale_sigma * normal(rng);
-    auto step = [&](const Eigen::Vector3d& d) { e_p += (1.0 + s) * (rotation(theta) * d) - d; };
+    auto step = [&](const Eigen::Vector3d& d) { e_p += (1.0 + s) * (expSO3(theta) * d) - d; };
     step(position(kFix) - position(0));  // the path before the fix, scaled by it
     for (int k = kFix + 1; k < kFrames; ++k) {
       if (k % kKeyframeEvery == 0) {
