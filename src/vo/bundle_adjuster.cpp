@@ -174,18 +174,39 @@ class ImuOnCameraPoses final : public ceres::SizedCostFunction<9, 4, 3, 3, 3, 3,
   Eigen::Vector3d t_cam_imu_;
 };
 
-/// Gaussian prior on the gyro and accelerometer biases of one keyframe: residual (b - mean) / sigma.
+/// Gaussian prior on the gyro and accelerometer biases of one keyframe: residual L^-1 (b - mean), L the
+/// Cholesky factor of the prior's covariance.
 struct BiasPriorResidual {
-  explicit BiasPriorResidual(const BaBiasPrior& p) : prior(p) {}
+  BiasPriorResidual(const BaBiasPrior& p, const Eigen::Matrix<double, 6, 6>& whitening)
+      : mean(p.mean), whitening(whitening) {}
   template <typename T>
   bool operator()(const T* bg, const T* ba, T* r) const {
+    T e[6];
     for (int k = 0; k < 3; ++k) {
-      r[k] = (bg[k] - T(prior.mean.gyro_radps[k])) / T(prior.gyro_sigma_radps);
-      r[3 + k] = (ba[k] - T(prior.mean.accel_mps2[k])) / T(prior.accel_sigma_mps2);
+      e[k] = bg[k] - T(mean.gyro_radps[k]);
+      e[3 + k] = ba[k] - T(mean.accel_mps2[k]);
+    }
+    for (int i = 0; i < 6; ++i) {
+      r[i] = T(0.0);
+      for (int k = 0; k <= i; ++k) r[i] += T(whitening(i, k)) * e[k];
     }
     return true;
   }
-  BaBiasPrior prior;
+  ImuBias mean;
+  Eigen::Matrix<double, 6, 6> whitening;  // lower triangular
+};
+
+/// Gaussian prior on a velocity: residual L^-1 (v - mean), L the Cholesky factor of its covariance.
+struct VelocityPriorResidual {
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d whitening;  // lower triangular
+  template <typename T>
+  bool operator()(const T* v, T* r) const {
+    Eigen::Matrix<T, 3, 1> e(v[0] - T(mean[0]), v[1] - T(mean[1]), v[2] - T(mean[2]));
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> out(r);
+    out = whitening.cast<T>() * e;
+    return true;
+  }
 };
 
 /// Prior on the pose of a camera pose block and a velocity: e = [p_world_cam - p, Log(R_world_cam R^T),
@@ -490,14 +511,29 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
     state_used[si] = state_used[sj] = 1;
     ++summary.imu_factors;
   }
+  std::vector<ceres::ResidualBlockId> velocity_priors(states.size(), nullptr);
+  for (size_t s = 0; s < states.size(); ++s) {
+    const BaInertialState& st = inertial.states[s];
+    if (!state_used[s] || st.velocity_fixed || !st.has_velocity_prior) continue;
+    const Eigen::LLT<Eigen::Matrix3d> llt(st.velocity_prior_covariance);
+    if (!st.velocity_prior_covariance.allFinite() || llt.info() != Eigen::Success)
+      throw std::invalid_argument("bundle adjustment: velocity prior needs a positive definite covariance");
+    velocity_priors[s] = ceres_problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<VelocityPriorResidual, 3, 3>(new VelocityPriorResidual{
+            st.velocity_prior_mps, llt.matrixL().solve(Eigen::Matrix3d::Identity())}),
+        nullptr, states[s].v.data());
+  }
   for (const BaBiasPrior& p : inertial.bias_priors) {
-    if (!(p.gyro_sigma_radps > 0.0 && p.accel_sigma_mps2 > 0.0))
-      throw std::invalid_argument("bundle adjustment: bias prior needs positive sigmas");
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(p.covariance);
+    if (!p.covariance.allFinite() || llt.info() != Eigen::Success)
+      throw std::invalid_argument("bundle adjustment: bias prior needs a positive definite covariance");
     const size_t s = stateOf(p.keyframe_id, "bias prior");
     if (!state_used[s]) continue;
+    const Eigen::Matrix<double, 6, 6> whitening =
+        llt.matrixL().solve(Eigen::Matrix<double, 6, 6>::Identity());
     ceres_problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 3, 3>(new BiasPriorResidual(p)), nullptr,
-        states[s].bg.data(), states[s].ba.data());
+        new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 3, 3>(new BiasPriorResidual(p, whitening)),
+        nullptr, states[s].bg.data(), states[s].ba.data());
   }
   int free_states = 0;
   for (size_t s = 0; s < states.size(); ++s) {
@@ -607,6 +643,7 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
     ceres_problem.SetParameterBlockVariable(poses[k0].q.data());
     ceres_problem.SetParameterBlockVariable(poses[k0].t.data());
     ceres_problem.SetParameterBlockVariable(states[s0].v.data());
+    if (velocity_priors[s0] != nullptr) ceres_problem.RemoveResidualBlock(velocity_priors[s0]);
     ceres_problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<CameraStatePrior, 9, 4, 3, 3>(
             new CameraStatePrior(problem->keyframes[k0].T_cam_world.inverse(),
@@ -687,7 +724,9 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
         if (!state_used[st]) continue;
         const size_t k = keyframe_index.at(inertial.states[st].keyframe_id);
         const double* b[3] = {poses[k].q.data(), poses[k].t.data(), states[st].v.data()};
-        if (!offset.count(b[0]) || !offset.count(b[1]) || !offset.count(b[2])) continue;
+        if (!offset.count(b[0]) || !offset.count(b[1]) || !offset.count(b[2]) ||
+            !offset.count(states[st].bg.data()) || !offset.count(states[st].ba.data()))
+          continue;
         Eigen::Matrix<double, 9, 9> tangent;
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
@@ -703,6 +742,12 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
         J.block<3, 3>(3, 0) = -2.0 * R_wc;
         J.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity();
         inertial.states[st].covariance = J * tangent * J.transpose();
+        const int og = offset.at(states[st].bg.data()), oa = offset.at(states[st].ba.data());
+        Eigen::Matrix<double, 6, 6>& bias = inertial.states[st].bias_covariance;
+        bias.block<3, 3>(0, 0) = covariance_cc.block<3, 3>(og, og);
+        bias.block<3, 3>(0, 3) = covariance_cc.block<3, 3>(og, oa);
+        bias.block<3, 3>(3, 0) = covariance_cc.block<3, 3>(oa, og);
+        bias.block<3, 3>(3, 3) = covariance_cc.block<3, 3>(oa, oa);
         inertial.states[st].has_covariance = true;
       }
     }
@@ -772,6 +817,16 @@ BaSummary adjustBundleImpl(BaProblem* problem, const BundleAdjustmentConfig& con
 }
 
 }  // namespace
+
+BaBiasPrior BaBiasPrior::diagonal(uint64_t keyframe_id, const ImuBias& mean, double gyro_sigma_radps,
+                                  double accel_sigma_mps2) {
+  BaBiasPrior p;
+  p.keyframe_id = keyframe_id;
+  p.mean = mean;
+  p.covariance.diagonal() << Eigen::Vector3d::Constant(gyro_sigma_radps * gyro_sigma_radps),
+      Eigen::Vector3d::Constant(accel_sigma_mps2 * accel_sigma_mps2);
+  return p;
+}
 
 BaSummary adjustBundle(BaProblem* problem, const BundleAdjustmentConfig& config) {
   return adjustBundleImpl(problem, config, nullptr, nullptr);

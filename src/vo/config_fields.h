@@ -238,6 +238,8 @@ void imuFields(C& c, V& v) {
   v("accel_random_walk_mps3_per_sqrt_hz", c.accel_random_walk_mps3_per_sqrt_hz, 1e-12, 10.0);
   v("gyro_turn_on_bias_radps", c.gyro_turn_on_bias_radps, 1e-9, 1.0);
   v("accel_turn_on_bias_mps2", c.accel_turn_on_bias_mps2, 1e-9, 10.0);
+  v("carry_bias_covariance", c.carry_bias_covariance);
+  v("anchor_velocity_prior", c.anchor_velocity_prior);
   v("gravity_mps2", c.gravity_mps2, 0.0, 100.0);
   v("cam_imu_x_m", c.cam_imu_x_m, -100.0, 100.0);
   v("cam_imu_y_m", c.cam_imu_y_m, -100.0, 100.0);

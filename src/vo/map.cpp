@@ -221,6 +221,8 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
       if (st.has_covariance && !kf->has_covariance) {
         kf->has_covariance = true;
         kf->covariance = st.covariance;
+        kf->imu_bias_at_covariance = st.bias;
+        kf->bias_covariance = st.bias_covariance;
       }
     }
   }
@@ -263,6 +265,8 @@ void Map::applyCovariances(const std::vector<BaInertialState>& states) {
     if (kf == nullptr || !st.has_covariance || kf->has_covariance) continue;
     kf->has_covariance = true;
     kf->covariance = st.covariance;
+    kf->imu_bias_at_covariance = st.bias;
+    kf->bias_covariance = st.bias_covariance;
   }
 }
 

@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Eigenvalues>
+
 #include "config_fields.h"
 #include "planetary_vo/geometry/median.h"
 #include "planetary_vo/vo/inertial_initializer.h"
@@ -1427,13 +1429,52 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
                                                        inertial_.gravityWorld());
     }
   }
-  // The oldest state's velocity is held with its fixed pose (both what earlier windows estimated, or what was
-  // handed over); its biases get the data sheet's turn-on sigma about the estimate so far.
-  inertial.states.front().velocity_fixed = std::any_of(
-      problem->keyframes.begin(), problem->keyframes.end(),
-      [&](const BaKeyframe& k) { return k.id == inertial.states.front().keyframe_id && k.fixed; });
-  inertial.bias_priors.push_back({inertial.states.front().keyframe_id, inertial.states.front().bias,
-                                  config_.imu.gyro_turn_on_bias_radps, config_.imu.accel_turn_on_bias_mps2});
+  // The oldest state's pose is held (the gauge: what earlier windows estimated, or what was handed over).
+  // Its velocity and biases are solved under what the window in which it was the newest knew of them: the
+  // velocity about the estimate so far, the biases about that window's estimate, each with that window's
+  // covariance (which holds the earlier windows' through its own oldest state). Held instead (velocity) or
+  // under the turn-on sigma re-centred on the estimate so far (biases), they took up the errors of the
+  // held state at every window and walked (docs/fusion/README.md, session 32). Before a covariance is known:
+  // the velocity held, the biases under the data sheet's turn-on sigma about the estimate so far.
+  BaInertialState& oldest = inertial.states.front();
+  oldest.velocity_fixed =
+      std::any_of(problem->keyframes.begin(), problem->keyframes.end(),
+                  [&](const BaKeyframe& k) { return k.id == oldest.keyframe_id && k.fixed; });
+  const bool known =
+      anchor->has_covariance && anchor->covariance.allFinite() && anchor->bias_covariance.allFinite();
+  const Eigen::Matrix3d velocity_covariance = anchor->covariance.block<3, 3>(6, 6);
+  if (config_.imu.anchor_velocity_prior && known && oldest.velocity_fixed &&
+      velocity_covariance.llt().info() == Eigen::Success) {
+    oldest.velocity_fixed = false;
+    oldest.has_velocity_prior = true;
+    oldest.velocity_prior_mps = oldest.v_world_mps;
+    oldest.velocity_prior_covariance = velocity_covariance;
+  }
+  // The carried covariance holds the data sheet's turn-on prior once, through the first window of the chain,
+  // so it is never looser than that prior. A chain that restarted (after an IMU gap, visual-inertial
+  // alignment) had no bias prior in its first windows: until its covariance is within the turn-on sigma in
+  // every direction, its biases are held under that sigma about the estimate so far, as before.
+  Eigen::Matrix<double, 6, 1> turn_on_sigma;
+  turn_on_sigma << Eigen::Vector3d::Constant(config_.imu.gyro_turn_on_bias_radps),
+      Eigen::Vector3d::Constant(config_.imu.accel_turn_on_bias_mps2);
+  const Eigen::Matrix<double, 6, 6> relative_to_turn_on = turn_on_sigma.cwiseInverse().asDiagonal() *
+                                                          anchor->bias_covariance *
+                                                          turn_on_sigma.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(relative_to_turn_on,
+                                                                       Eigen::EigenvaluesOnly);
+  constexpr double kMaxVarianceRatio = 1.01;  // measured: at most 1.0000 along a descent (main_brake_down)
+  if (config_.imu.carry_bias_covariance && known && anchor->bias_covariance.llt().info() == Eigen::Success &&
+      eig.eigenvalues().maxCoeff() <= kMaxVarianceRatio) {
+    BaBiasPrior prior;
+    prior.keyframe_id = anchor->id;
+    prior.mean = anchor->imu_bias_at_covariance;
+    prior.covariance = anchor->bias_covariance;
+    inertial.bias_priors.push_back(prior);
+  } else {
+    inertial.bias_priors.push_back(BaBiasPrior::diagonal(oldest.keyframe_id, oldest.bias,
+                                                         config_.imu.gyro_turn_on_bias_radps,
+                                                         config_.imu.accel_turn_on_bias_mps2));
+  }
 }
 
 void Pipeline::fillInertialOutput(FrameResult* result) const {

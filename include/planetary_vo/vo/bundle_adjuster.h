@@ -95,10 +95,19 @@ struct BaInertialState {
   /// The velocity is held (like the fixed pose of the window's oldest keyframe: what earlier windows
   /// estimated, or the velocity handed over); the biases stay free.
   bool velocity_fixed = false;
+  /// A Gaussian prior on the velocity, used when the velocity is free (not velocity_fixed): the window's
+  /// oldest state solved under what earlier windows knew of its velocity instead of held. When the covariance
+  /// releases that state under anchor_covariance (BaInertial::compute_covariance), that prior replaces it.
+  bool has_velocity_prior = false;
+  Eigen::Vector3d velocity_prior_mps = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d velocity_prior_covariance = Eigen::Matrix3d::Identity();  ///< positive definite
   /// Output of BaInertial::compute_covariance: the covariance of [position (world, m), attitude (world-frame
   /// rotation vector, rad), velocity (world, m/s)] of the keyframe's camera and body velocity.
   bool has_covariance = false;
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
+  /// With it: the covariance of the biases [gyro (rad/s), accelerometer (m/s^2)] (their marginal; the
+  /// correlations with the pose and velocity are not kept).
+  Eigen::Matrix<double, 6, 6> bias_covariance = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 /// The preintegrated IMU between two keyframes of the problem (i older than j): an ImuFactor and a bias
@@ -108,13 +117,16 @@ struct BaImuConstraint {
   std::shared_ptr<const ImuPreintegration> preintegration;
 };
 
-/// A Gaussian prior on the biases of one keyframe (the turn-on bias of the data sheet, or what the earlier
-/// windows estimated).
+/// A Gaussian prior on the biases of one keyframe: the turn-on bias of the data sheet (diagonal()), or what
+/// an earlier window estimated with its covariance.
 struct BaBiasPrior {
   uint64_t keyframe_id = 0;
   ImuBias mean;
-  double gyro_sigma_radps = 0.0;  ///< > 0
-  double accel_sigma_mps2 = 0.0;  ///< > 0
+  /// Covariance of [gyro (rad/s), accelerometer (m/s^2)] biases; positive definite.
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+
+  static BaBiasPrior diagonal(uint64_t keyframe_id, const ImuBias& mean, double gyro_sigma_radps,
+                              double accel_sigma_mps2);
 };
 
 /// The inertial part of a window (empty states: vision only). Gravity makes the world's roll and pitch and
@@ -127,8 +139,9 @@ struct BaInertial {
   std::vector<BaBiasPrior> bias_priors;
   /// After the solve, the covariance of every state (BaInertialState::covariance): the inverse of the
   /// solution's information (J^T J with the points eliminated by their Schur complement) with the oldest
-  /// state's fixed pose and velocity released under a prior of anchor_covariance (same order as the
-  /// output), so that what the window's gauge holds fixed carries the uncertainty it had. Left out
+  /// state's fixed pose and its velocity (held, or under its velocity prior) released under a prior of
+  /// anchor_covariance (same order as the output), so that what the window's gauge holds fixed carries the
+  /// uncertainty it had. Left out
   /// (has_covariance false) when the reduced information is not positive definite.
   bool compute_covariance = false;
   Eigen::Matrix<double, 9, 9> anchor_covariance = Eigen::Matrix<double, 9, 9>::Identity();

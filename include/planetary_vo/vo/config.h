@@ -192,9 +192,9 @@ struct PnpConfig {
   double prediction_min_inlier_ratio = 0.8;
 };
 
-/// The motion filter of the vision-only output (motion_filter.h): each frame's pose against the map fused with
-/// a constant-acceleration (or constant-velocity) prediction. Off in the camera + IMU mode (the IMU is the
-/// motion model there) and in the unit-step chain.
+/// The motion filter of the vision-only output (motion_filter.h): each frame's pose against the map fused
+/// with a constant-acceleration (or constant-velocity) prediction. Off in the camera + IMU mode (the IMU is
+/// the motion model there) and in the unit-step chain.
 struct MotionFilterConfig {
   bool enabled = true;  ///< the default since docs/visual_core.md step 16 (held out: 53 of 53 renders lower)
   /// Random acceleration of the motion model, as a fraction of the speed per second (map units are not metres
@@ -203,8 +203,8 @@ struct MotionFilterConfig {
   /// error lower on 53 of 53 renders); config/lunar_altimeter.yaml keeps 0.02 and 0.05 for its velocity
   /// covariance, which guidance reads.
   double accel_sigma_ratio_per_s = 0.01;
-  /// Also estimate a constant acceleration (a braking lander is then followed without lag), driven by a random
-  /// jerk of jerk_sigma_ratio_per_s2 times the speed; false: constant velocity (step 14's filter).
+  /// Also estimate a constant acceleration (a braking lander is then followed without lag), driven by a
+  /// random jerk of jerk_sigma_ratio_per_s2 times the speed; false: constant velocity (step 14's filter).
   bool constant_acceleration = true;
   double jerk_sigma_ratio_per_s2 = 0.025;
   /// The acceleration's uncertainty when the filter starts, as a fraction of the speed per second.
@@ -314,6 +314,14 @@ struct ImuAidingConfig {
   /// 1-sigma of the turn-on biases (the prior of the bias estimate; sensors.yaml *_turn_on_bias_*).
   double gyro_turn_on_bias_radps = 1.939254724e-05;
   double accel_turn_on_bias_mps2 = 0.0073549875;
+  /// The biases of a window's oldest keyframe: true: under the estimate and covariance of the window in which
+  /// that keyframe was the newest (what earlier windows learnt is carried on); false: under the turn-on sigma
+  /// about the estimate so far (no memory: the estimate may walk by that much at every window).
+  bool carry_bias_covariance = true;
+  /// The velocity of a window's oldest keyframe: true: solved under the estimate so far with the covariance
+  /// of the window in which that keyframe was the newest; false: held with its pose (its error then goes into
+  /// the biases and the map).
+  bool anchor_velocity_prior = true;
   /// Gravity magnitude; the world frame of the handed-over state has z up (Lunar: 1.62 m/s^2).
   double gravity_mps2 = 1.62;
   /// IMU pose in the camera optical frame (T_cam_imu): translation and roll/pitch/yaw (x, y, z axes, applied

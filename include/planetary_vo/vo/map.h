@@ -55,6 +55,10 @@ struct Keyframe {
   /// measurements its anchor's covariance already holds.
   bool has_covariance = false;
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
+  /// From the same window (with has_covariance): the biases it estimated and their covariance
+  /// (BaInertialState::bias_covariance), the prior of the biases when the keyframe is a window's oldest.
+  ImuBias imu_bias_at_covariance;
+  Eigen::Matrix<double, 6, 6> bias_covariance = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 struct MapObservation {

@@ -164,6 +164,8 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.imu.gyro_random_walk_radps2_per_sqrt_hz, 3.0e-08);
   EXPECT_DOUBLE_EQ(c.imu.accel_random_walk_mps3_per_sqrt_hz, 2.0e-05);
   EXPECT_DOUBLE_EQ(c.imu.gyro_turn_on_bias_radps, 5.0e-05);
+  EXPECT_FALSE(c.imu.carry_bias_covariance);
+  EXPECT_FALSE(c.imu.anchor_velocity_prior);
   EXPECT_DOUBLE_EQ(c.imu.accel_turn_on_bias_mps2, 0.01);
   EXPECT_DOUBLE_EQ(c.imu.gravity_mps2, 3.71);
   EXPECT_DOUBLE_EQ(c.imu.cam_imu_x_m, 0.05);
@@ -296,8 +298,10 @@ TEST(VoConfig, AltimeterConfigDiffersFromTheDefaultOnlyByTheAltimeterAndTheFilte
   // velocity covariance, which guidance reads in this mode, holds with it).
   VoConfig c = loadVoConfig(sourceRoot() + "config/lunar_altimeter.yaml");
   EXPECT_TRUE(c.altimeter.enabled);
-  EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s, 2.0 * VoConfig().motion_filter.accel_sigma_ratio_per_s);
-  EXPECT_DOUBLE_EQ(c.motion_filter.jerk_sigma_ratio_per_s2, 2.0 * VoConfig().motion_filter.jerk_sigma_ratio_per_s2);
+  EXPECT_DOUBLE_EQ(c.motion_filter.accel_sigma_ratio_per_s,
+                   2.0 * VoConfig().motion_filter.accel_sigma_ratio_per_s);
+  EXPECT_DOUBLE_EQ(c.motion_filter.jerk_sigma_ratio_per_s2,
+                   2.0 * VoConfig().motion_filter.jerk_sigma_ratio_per_s2);
   c.altimeter.enabled = false;
   c.motion_filter.accel_sigma_ratio_per_s = VoConfig().motion_filter.accel_sigma_ratio_per_s;
   c.motion_filter.jerk_sigma_ratio_per_s2 = VoConfig().motion_filter.jerk_sigma_ratio_per_s2;
@@ -319,7 +323,8 @@ TEST(VoConfig, RawPoseConfigDiffersFromTheDefaultOnlyByTheFilterOff) {
   EXPECT_FALSE(c.motion_filter.enabled);
   EXPECT_TRUE(VoConfig().motion_filter.enabled);
   c.motion_filter.enabled = VoConfig().motion_filter.enabled;
-  EXPECT_TRUE(c == VoConfig()) << "config/raw_pose.yaml changes more than motion_filter.enabled:\n" << c.dump();
+  EXPECT_TRUE(c == VoConfig()) << "config/raw_pose.yaml changes more than motion_filter.enabled:\n"
+                               << c.dump();
 }
 
 TEST(VoConfig, ThesisConfigsLoadWithTheirMotionModel) {
