@@ -1429,13 +1429,13 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
                                                        inertial_.gravityWorld());
     }
   }
-  // The oldest state's pose is held (the gauge: what earlier windows estimated, or what was handed over).
-  // Its velocity and biases are solved under what the window in which it was the newest knew of them: the
-  // velocity about the estimate so far, the biases about that window's estimate, each with that window's
-  // covariance (which holds the earlier windows' through its own oldest state). Held instead (velocity) or
-  // under the turn-on sigma re-centred on the estimate so far (biases), they took up the errors of the
-  // held state at every window and walked (docs/fusion/README.md, session 32). Before a covariance is known:
-  // the velocity held, the biases under the data sheet's turn-on sigma about the estimate so far.
+  // The oldest state's pose and velocity are held (the gauge: what earlier windows estimated, or what was
+  // handed over). Its biases are solved under what the window in which it was the newest estimated, with that
+  // window's covariance (which holds the earlier windows' through its own oldest state): under the turn-on
+  // sigma re-centred on the estimate so far, as before session 32, they took up the held state's errors at
+  // every window and walked (docs/fusion/README.md). With imu.anchor_velocity_prior the velocity is solved
+  // under its covariance from that window too, about the estimate so far. Before a covariance is known: the
+  // velocity held, the biases under the data sheet's turn-on sigma about the estimate so far.
   BaInertialState& oldest = inertial.states.front();
   oldest.velocity_fixed =
       std::any_of(problem->keyframes.begin(), problem->keyframes.end(),

@@ -165,7 +165,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.imu.accel_random_walk_mps3_per_sqrt_hz, 2.0e-05);
   EXPECT_DOUBLE_EQ(c.imu.gyro_turn_on_bias_radps, 5.0e-05);
   EXPECT_FALSE(c.imu.carry_bias_covariance);
-  EXPECT_FALSE(c.imu.anchor_velocity_prior);
+  EXPECT_TRUE(c.imu.anchor_velocity_prior);
   EXPECT_DOUBLE_EQ(c.imu.accel_turn_on_bias_mps2, 0.01);
   EXPECT_DOUBLE_EQ(c.imu.gravity_mps2, 3.71);
   EXPECT_DOUBLE_EQ(c.imu.cam_imu_x_m, 0.05);

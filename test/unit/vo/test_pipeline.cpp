@@ -1103,12 +1103,12 @@ TEST(Pipeline, ImuGivesMetricPositionAndVelocityInTheHandedOverFrame) {
 }
 
 // The IMU biases do not walk from window to window (docs/fusion/README.md, session 32). A window's oldest
-// state used to be held at its velocity and re-centred at the turn-on sigma in its biases, so every window
-// could move the biases by a turn-on sigma to absorb the held state's errors: with an exact IMU (no bias)
-// they ended far from zero. Its velocity now has a prior and its biases the covariance the window in which
-// it was the newest learnt. Over 200 images (20 s) with an IMU without bias, the biases' mean error is
-// several times smaller with both (measured: gyro 20x, accelerometer 3.6x), and the end error stays within
-// 0.1 % of the path (both 0.23-0.24 m over 1032 m).
+// state used to have its biases under the turn-on sigma re-centred on the estimate so far, so every window
+// could move them by a turn-on sigma to absorb the held state's errors: with an exact IMU (no bias) they
+// ended far from zero. They now keep the covariance the window in which that state was the newest learnt
+// (imu.carry_bias_covariance). Over 200 images (20 s) with an IMU without bias, the biases' mean error is
+// several times smaller (measured: gyro 4.6x, accelerometer 2.1x), and so is the end error (0.08 against
+// 0.23 m over 1032 m).
 TEST(Pipeline, TheImuBiasesDoNotWalkFromWindowToWindow) {
   struct Walk {
     double gyro_radps = 0.0, accel_mps2 = 0.0, final_position_m = 0.0, path_m = 0.0;
@@ -1117,7 +1117,6 @@ TEST(Pipeline, TheImuBiasesDoNotWalkFromWindowToWindow) {
     VoConfig config;
     config.imu.enabled = true;
     config.imu.carry_bias_covariance = carried;
-    config.imu.anchor_velocity_prior = carried;
     const SequenceRun run =
         runSequence(config, 200, -1, -1, false, true, true, -1.0, -1.0, Outage::kNoise, false);
     Walk w;
@@ -1139,11 +1138,11 @@ TEST(Pipeline, TheImuBiasesDoNotWalkFromWindowToWindow) {
   const Walk carried = walk(true), held = walk(false);
   std::cout << "bias estimates of an IMU without bias, mean over the frames: carried " << carried.gyro_radps
             << " rad/s, " << carried.accel_mps2 << " m/s^2 (end error " << carried.final_position_m
-            << " m); held and re-centred " << held.gyro_radps << " rad/s, " << held.accel_mps2
-            << " m/s^2 (end error " << held.final_position_m << " m) over " << carried.path_m << " m\n";
+            << " m); re-centred " << held.gyro_radps << " rad/s, " << held.accel_mps2 << " m/s^2 (end error "
+            << held.final_position_m << " m) over " << carried.path_m << " m\n";
   EXPECT_LT(carried.gyro_radps, 0.4 * held.gyro_radps);
-  EXPECT_LT(carried.accel_mps2, 0.5 * held.accel_mps2);
-  EXPECT_LT(carried.final_position_m, 0.001 * carried.path_m);
+  EXPECT_LT(carried.accel_mps2, 0.6 * held.accel_mps2);
+  EXPECT_LT(carried.final_position_m, 0.6 * held.final_position_m);
 }
 
 // Camera + IMU with the handed-over state, and the first 20 images black (refused, the first one too): until
