@@ -174,37 +174,39 @@ class ImuOnCameraPoses final : public ceres::SizedCostFunction<9, 4, 3, 3, 3, 3,
   Eigen::Vector3d t_cam_imu_;
 };
 
-/// Gaussian prior on the gyro and accelerometer biases of one keyframe: residual L^-1 (b - mean), L the
-/// Cholesky factor of the prior's covariance.
+/// L^-1 for the Cholesky factor L of a prior's covariance (its residual is L^-1 (x - mean)); throws when the
+/// covariance is not positive definite.
+template <int N>
+Eigen::Matrix<double, N, N> priorWhitening(const Eigen::Matrix<double, N, N>& covariance, const char* what) {
+  const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(covariance);
+  if (!covariance.allFinite() || llt.info() != Eigen::Success)
+    throw std::invalid_argument(std::string("bundle adjustment: ") + what +
+                                " needs a positive definite covariance");
+  return llt.matrixL().solve(Eigen::Matrix<double, N, N>::Identity());
+}
+
+/// Gaussian prior on the gyro and accelerometer biases of one keyframe: residual L^-1 (b - mean).
 struct BiasPriorResidual {
-  BiasPriorResidual(const BaBiasPrior& p, const Eigen::Matrix<double, 6, 6>& whitening)
-      : mean(p.mean), whitening(whitening) {}
+  Eigen::Matrix<double, 6, 1> mean;  // [gyro, accelerometer]
+  Eigen::Matrix<double, 6, 6> whitening;
   template <typename T>
   bool operator()(const T* bg, const T* ba, T* r) const {
-    T e[6];
-    for (int k = 0; k < 3; ++k) {
-      e[k] = bg[k] - T(mean.gyro_radps[k]);
-      e[3 + k] = ba[k] - T(mean.accel_mps2[k]);
-    }
-    for (int i = 0; i < 6; ++i) {
-      r[i] = T(0.0);
-      for (int k = 0; k <= i; ++k) r[i] += T(whitening(i, k)) * e[k];
-    }
+    Eigen::Matrix<T, 6, 1> e;
+    e << Eigen::Map<const Eigen::Matrix<T, 3, 1>>(bg), Eigen::Map<const Eigen::Matrix<T, 3, 1>>(ba);
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> residual(r);
+    residual = whitening.cast<T>() * (e - mean.cast<T>());
     return true;
   }
-  ImuBias mean;
-  Eigen::Matrix<double, 6, 6> whitening;  // lower triangular
 };
 
-/// Gaussian prior on a velocity: residual L^-1 (v - mean), L the Cholesky factor of its covariance.
+/// Gaussian prior on a velocity: residual L^-1 (v - mean).
 struct VelocityPriorResidual {
   Eigen::Vector3d mean;
-  Eigen::Matrix3d whitening;  // lower triangular
+  Eigen::Matrix3d whitening;
   template <typename T>
   bool operator()(const T* v, T* r) const {
-    Eigen::Matrix<T, 3, 1> e(v[0] - T(mean[0]), v[1] - T(mean[1]), v[2] - T(mean[2]));
-    Eigen::Map<Eigen::Matrix<T, 3, 1>> out(r);
-    out = whitening.cast<T>() * e;
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> residual(r);
+    residual = whitening.cast<T>() * (Eigen::Map<const Eigen::Matrix<T, 3, 1>>(v) - mean.cast<T>());
     return true;
   }
 };
@@ -515,24 +517,19 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
   for (size_t s = 0; s < states.size(); ++s) {
     const BaInertialState& st = inertial.states[s];
     if (!state_used[s] || st.velocity_fixed || !st.has_velocity_prior) continue;
-    const Eigen::LLT<Eigen::Matrix3d> llt(st.velocity_prior_covariance);
-    if (!st.velocity_prior_covariance.allFinite() || llt.info() != Eigen::Success)
-      throw std::invalid_argument("bundle adjustment: velocity prior needs a positive definite covariance");
     velocity_priors[s] = ceres_problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<VelocityPriorResidual, 3, 3>(new VelocityPriorResidual{
-            st.velocity_prior_mps, llt.matrixL().solve(Eigen::Matrix3d::Identity())}),
+            st.velocity_prior_mps, priorWhitening<3>(st.velocity_prior_covariance, "velocity prior")}),
         nullptr, states[s].v.data());
   }
   for (const BaBiasPrior& p : inertial.bias_priors) {
-    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(p.covariance);
-    if (!p.covariance.allFinite() || llt.info() != Eigen::Success)
-      throw std::invalid_argument("bundle adjustment: bias prior needs a positive definite covariance");
+    const Eigen::Matrix<double, 6, 6> whitening = priorWhitening<6>(p.covariance, "bias prior");
     const size_t s = stateOf(p.keyframe_id, "bias prior");
     if (!state_used[s]) continue;
-    const Eigen::Matrix<double, 6, 6> whitening =
-        llt.matrixL().solve(Eigen::Matrix<double, 6, 6>::Identity());
+    Eigen::Matrix<double, 6, 1> mean;
+    mean << p.mean.gyro_radps, p.mean.accel_mps2;
     ceres_problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 3, 3>(new BiasPriorResidual(p, whitening)),
+        new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 3, 3>(new BiasPriorResidual{mean, whitening}),
         nullptr, states[s].bg.data(), states[s].ba.data());
   }
   int free_states = 0;
@@ -742,12 +739,11 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
         J.block<3, 3>(3, 0) = -2.0 * R_wc;
         J.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity();
         inertial.states[st].covariance = J * tangent * J.transpose();
-        const int og = offset.at(states[st].bg.data()), oa = offset.at(states[st].ba.data());
-        Eigen::Matrix<double, 6, 6>& bias = inertial.states[st].bias_covariance;
-        bias.block<3, 3>(0, 0) = covariance_cc.block<3, 3>(og, og);
-        bias.block<3, 3>(0, 3) = covariance_cc.block<3, 3>(og, oa);
-        bias.block<3, 3>(3, 0) = covariance_cc.block<3, 3>(oa, og);
-        bias.block<3, 3>(3, 3) = covariance_cc.block<3, 3>(oa, oa);
+        const int o[2] = {offset.at(states[st].bg.data()), offset.at(states[st].ba.data())};
+        for (int i = 0; i < 2; ++i)
+          for (int j = 0; j < 2; ++j)
+            inertial.states[st].bias_covariance.block<3, 3>(3 * i, 3 * j) =
+                covariance_cc.block<3, 3>(o[i], o[j]);
         inertial.states[st].has_covariance = true;
       }
     }

@@ -218,14 +218,9 @@ int Map::applyBaResult(const BaProblem& problem, const std::vector<BaObservation
     if (Keyframe* kf = keyframe(st.keyframe_id)) {
       kf->v_world_mps = st.v_world_mps;
       kf->imu_bias = st.bias;
-      if (st.has_covariance && !kf->has_covariance) {
-        kf->has_covariance = true;
-        kf->covariance = st.covariance;
-        kf->imu_bias_at_covariance = st.bias;
-        kf->bias_covariance = st.bias_covariance;
-      }
     }
   }
+  applyCovariances(problem.inertial.states);
   std::unordered_set<uint64_t> touched;
   for (const BaObservation& o : outliers) {
     MapPoint* p = point(o.point_id);

@@ -141,8 +141,8 @@ struct BaInertial {
   /// solution's information (J^T J with the points eliminated by their Schur complement) with the oldest
   /// state's fixed pose and its velocity (held, or under its velocity prior) released under a prior of
   /// anchor_covariance (same order as the output), so that what the window's gauge holds fixed carries the
-  /// uncertainty it had. Left out
-  /// (has_covariance false) when the reduced information is not positive definite.
+  /// uncertainty it had. Left out (has_covariance false) when the reduced information is not positive
+  /// definite.
   bool compute_covariance = false;
   Eigen::Matrix<double, 9, 9> anchor_covariance = Eigen::Matrix<double, 9, 9>::Identity();
 };

@@ -321,8 +321,9 @@ struct ImuAidingConfig {
   /// The velocity of a window's oldest keyframe: true: solved under the estimate so far with the covariance
   /// of the window in which that keyframe was the newest; false: held with its pose (its error then goes into
   /// the biases and the map). Opt-in: on Main Brake it lowers the position error further (22 biased-IMU
-  /// renders: geometric mean x0.66 of the held velocity's instead of x0.86), but on Approach it raises it
-  /// 2.4x (0.07 -> 0.13-0.69 m on 8 of 8 held-out renders; docs/fusion/README.md, session 32).
+  /// renders at 512x512: position RMSE x0.66 of before session 32, against x0.86 with the velocity held), but
+  /// on Approach it raises it x2.29 (15 of 16 held-out 1024 flight renders, 0.04-0.12 -> 0.10-0.69 m;
+  /// docs/fusion/README.md, session 32).
   bool anchor_velocity_prior = false;
   /// Gravity magnitude; the world frame of the handed-over state has z up (Lunar: 1.62 m/s^2).
   double gravity_mps2 = 1.62;
