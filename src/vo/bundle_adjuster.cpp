@@ -262,6 +262,48 @@ struct PoseBlock {
   std::array<double, 3> t;
 };
 
+/// Stops the solve once a successful iteration moved no free keyframe by more than `tolerance`: rotation in
+/// rad, camera centre as a fraction of `extent_m` (BundleAdjustmentConfig::pose_change_tolerance). Reads the
+/// pose blocks after each iteration (Solver::Options::update_state_every_iteration must be set).
+class PoseChangeCallback : public ceres::IterationCallback {
+ public:
+  PoseChangeCallback(std::vector<const PoseBlock*> free_poses, double extent_m, double tolerance)
+      : poses_(std::move(free_poses)), extent_m_(extent_m), tolerance_(tolerance) {
+    read(&previous_);
+  }
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& iteration) override {
+    if (iteration.iteration == 0 || !iteration.step_is_successful) return ceres::SOLVER_CONTINUE;
+    std::vector<Pose> now;
+    read(&now);
+    bool moved = false;
+    for (size_t k = 0; k < now.size() && !moved; ++k) {
+      const double rotation_rad =
+          Eigen::AngleAxisd(now[k].linear().transpose() * previous_[k].linear()).angle();
+      const double centre_m = (now[k].translation() - previous_[k].translation()).norm();
+      moved = rotation_rad > tolerance_ || centre_m > tolerance_ * extent_m_;
+    }
+    previous_ = std::move(now);
+    return moved ? ceres::SOLVER_CONTINUE : ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+
+ private:
+  // T_world_cam of each pose block (its translation is the camera centre).
+  void read(std::vector<Pose>* T_world_cam) const {
+    T_world_cam->clear();
+    for (const PoseBlock* b : poses_) {
+      Pose T_cam_world = Pose::Identity();
+      T_cam_world.linear() = Eigen::Map<const Eigen::Quaterniond>(b->q.data()).normalized().toRotationMatrix();
+      T_cam_world.translation() = Eigen::Map<const Eigen::Vector3d>(b->t.data());
+      T_world_cam->push_back(T_cam_world.inverse());
+    }
+  }
+
+  std::vector<const PoseBlock*> poses_;
+  double extent_m_, tolerance_;
+  std::vector<Pose> previous_;
+};
+
 PoseBlock toBlock(const Pose& T) {
   // Isometry3d::rotation() would run an SVD polar decomposition; linear() is a rotation by contract.
   const Eigen::Quaterniond q(T.linear());
@@ -283,6 +325,10 @@ void validateConfig(const BundleAdjustmentConfig& config) {
       !(config.robust_loss_scale_px > 0.0 && std::isfinite(config.robust_loss_scale_px))) {
     throw std::invalid_argument("bundle adjustment: robust_loss_scale_px must be positive, got " +
                                 std::to_string(config.robust_loss_scale_px));
+  }
+  if (!(config.pose_change_tolerance >= 0.0 && std::isfinite(config.pose_change_tolerance))) {
+    throw std::invalid_argument("bundle adjustment: pose_change_tolerance must not be negative, got " +
+                                std::to_string(config.pose_change_tolerance));
   }
   if (config.max_iterations < 0) {
     throw std::invalid_argument("bundle adjustment: max_iterations must not be negative, got " +
@@ -604,6 +650,27 @@ BaSummary solveBundle(BaProblem* problem, const BundleAdjustmentConfig& config,
     }
     AbortCallback abort_callback(abort);
     if (abort != nullptr) options.callbacks.push_back(&abort_callback);
+    std::unique_ptr<PoseChangeCallback> pose_change_callback;
+    // Not with inertial states: their biases converge after the poses (on 50 camera + IMU renders the attitude
+    // at the end was 3 % worse, 17 of 50 better, with the early stop).
+    if (config.pose_change_tolerance > 0.0 && free_poses > 0 && free_states == 0) {
+      std::vector<const PoseBlock*> free_pose_blocks;
+      std::vector<Eigen::Vector3d> centres;
+      for (size_t k = 0; k < poses.size(); ++k) {
+        if (!pose_used[k]) continue;
+        centres.push_back(toPose(poses[k]).inverse().translation());
+        if (!problem->keyframes[k].fixed) free_pose_blocks.push_back(&poses[k]);
+      }
+      double extent_m = 0.0;
+      for (const Eigen::Vector3d& a : centres)
+        for (const Eigen::Vector3d& b : centres) extent_m = std::max(extent_m, (a - b).norm());
+      if (extent_m > 0.0) {
+        pose_change_callback = std::make_unique<PoseChangeCallback>(std::move(free_pose_blocks), extent_m,
+                                                                    config.pose_change_tolerance);
+        options.update_state_every_iteration = true;
+        options.callbacks.push_back(pose_change_callback.get());
+      }
+    }
 
     ceres::Solver::Summary ceres_summary;
     ceres::Solve(options, &ceres_problem, &ceres_summary);

@@ -197,6 +197,7 @@ void bundleAdjustmentFields(C& c, V& v) {
   v("robust_loss_scale_px", c.robust_loss_scale_px, 1e-3, 100.0);
   v("robust_loss_scale_aligned_px", c.robust_loss_scale_aligned_px, 1e-3, 100.0);
   v("max_iterations", c.max_iterations, 1, 10000);
+  v("pose_change_tolerance", c.pose_change_tolerance, 0.0, 0.1);
   v("asynchronous", c.asynchronous);
   v("thread_nice", c.thread_nice, 0, 19);
   v("collect_after_images", c.collect_after_images, 1, 1000);

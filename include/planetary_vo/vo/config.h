@@ -240,6 +240,13 @@ struct BundleAdjustmentConfig {
   /// refinement of the frames tracked that way (and for their 3x outlier threshold).
   double robust_loss_scale_aligned_px = 0.5;
   int max_iterations = 20;  ///< Ceres iterations per adjustment
+  /// The adjustment also stops once an iteration moved no free keyframe by more than this: its rotation in
+  /// rad, and its camera centre as a fraction of the window's extent (the largest distance between two of
+  /// its camera centres). What is still moving then (a point sliding along its ray) changes no pose: on the
+  /// benchmark renders a fifth of the adjustments ran to max_iterations that way (docs/visual_core.md step
+  /// 22). Not used in windows with IMU states (their biases converge after the poses). 0 = Ceres' own
+  /// stopping criteria only.
+  double pose_change_tolerance = 1e-5;
   /// Adjust in a background thread while the next image is tracked (applied before that frame's pose, so
   /// results do not depend on timing); false = inline, within the keyframe's own processing.
   bool asynchronous = true;

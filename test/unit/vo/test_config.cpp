@@ -140,6 +140,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_px, 1.5);
   EXPECT_DOUBLE_EQ(c.bundle_adjustment.robust_loss_scale_aligned_px, 0.75);
   EXPECT_EQ(c.bundle_adjustment.max_iterations, 50);
+  EXPECT_DOUBLE_EQ(c.bundle_adjustment.pose_change_tolerance, 0.002);
   EXPECT_FALSE(c.bundle_adjustment.asynchronous);
   EXPECT_EQ(c.bundle_adjustment.thread_nice, 3);
   EXPECT_EQ(c.bundle_adjustment.collect_after_images, 4);
