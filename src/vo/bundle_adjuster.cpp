@@ -262,6 +262,22 @@ struct PoseBlock {
   std::array<double, 3> t;
 };
 
+PoseBlock toBlock(const Pose& T) {
+  // Isometry3d::rotation() would run an SVD polar decomposition; linear() is a rotation by contract.
+  const Eigen::Quaterniond q(T.linear());
+  PoseBlock b;
+  Eigen::Map<Eigen::Quaterniond>(b.q.data()) = q.normalized();
+  Eigen::Map<Eigen::Vector3d>(b.t.data()) = T.translation();
+  return b;
+}
+
+Pose toPose(const PoseBlock& b) {
+  Pose T = Pose::Identity();
+  T.linear() = Eigen::Map<const Eigen::Quaterniond>(b.q.data()).normalized().toRotationMatrix();
+  T.translation() = Eigen::Map<const Eigen::Vector3d>(b.t.data());
+  return T;
+}
+
 /// Stops the solve once a successful iteration moved no free keyframe by more than `tolerance`: rotation in
 /// rad, camera centre as a fraction of `extent_m` (BundleAdjustmentConfig::pose_change_tolerance). Reads the
 /// pose blocks after each iteration (Solver::Options::update_state_every_iteration must be set).
@@ -291,34 +307,13 @@ class PoseChangeCallback : public ceres::IterationCallback {
   // T_world_cam of each pose block (its translation is the camera centre).
   void read(std::vector<Pose>* T_world_cam) const {
     T_world_cam->clear();
-    for (const PoseBlock* b : poses_) {
-      Pose T_cam_world = Pose::Identity();
-      T_cam_world.linear() = Eigen::Map<const Eigen::Quaterniond>(b->q.data()).normalized().toRotationMatrix();
-      T_cam_world.translation() = Eigen::Map<const Eigen::Vector3d>(b->t.data());
-      T_world_cam->push_back(T_cam_world.inverse());
-    }
+    for (const PoseBlock* b : poses_) T_world_cam->push_back(toPose(*b).inverse());
   }
 
   std::vector<const PoseBlock*> poses_;
   double extent_m_, tolerance_;
   std::vector<Pose> previous_;
 };
-
-PoseBlock toBlock(const Pose& T) {
-  // Isometry3d::rotation() would run an SVD polar decomposition; linear() is a rotation by contract.
-  const Eigen::Quaterniond q(T.linear());
-  PoseBlock b;
-  Eigen::Map<Eigen::Quaterniond>(b.q.data()) = q.normalized();
-  Eigen::Map<Eigen::Vector3d>(b.t.data()) = T.translation();
-  return b;
-}
-
-Pose toPose(const PoseBlock& b) {
-  Pose T = Pose::Identity();
-  T.linear() = Eigen::Map<const Eigen::Quaterniond>(b.q.data()).normalized().toRotationMatrix();
-  T.translation() = Eigen::Map<const Eigen::Vector3d>(b.t.data());
-  return T;
-}
 
 void validateConfig(const BundleAdjustmentConfig& config) {
   if (config.robust_loss != RobustLoss::kNone &&

@@ -1454,17 +1454,19 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
   // so it is never looser than that prior. A chain that restarted (after an IMU gap, visual-inertial
   // alignment) had no bias prior in its first windows: until its covariance is within the turn-on sigma in
   // every direction, its biases are held under that sigma about the estimate so far, as before.
-  Eigen::Matrix<double, 6, 1> turn_on_sigma;
-  turn_on_sigma << Eigen::Vector3d::Constant(config_.imu.gyro_turn_on_bias_radps),
-      Eigen::Vector3d::Constant(config_.imu.accel_turn_on_bias_mps2);
-  const Eigen::Matrix<double, 6, 6> relative_to_turn_on = turn_on_sigma.cwiseInverse().asDiagonal() *
-                                                          anchor->bias_covariance *
-                                                          turn_on_sigma.cwiseInverse().asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(relative_to_turn_on,
-                                                                       Eigen::EigenvaluesOnly);
-  constexpr double kMaxVarianceRatio = 1.01;  // measured: at most 1.0000 along a descent (main_brake_down)
+  auto withinTurnOn = [&](const Eigen::Matrix<double, 6, 6>& covariance) {
+    Eigen::Matrix<double, 6, 1> turn_on_sigma;
+    turn_on_sigma << Eigen::Vector3d::Constant(config_.imu.gyro_turn_on_bias_radps),
+        Eigen::Vector3d::Constant(config_.imu.accel_turn_on_bias_mps2);
+    const Eigen::Matrix<double, 6, 6> relative = turn_on_sigma.cwiseInverse().asDiagonal() * covariance *
+                                                 turn_on_sigma.cwiseInverse().asDiagonal();
+    constexpr double kMaxVarianceRatio = 1.01;  // measured: at most 1.0000 along a descent (main_brake_down)
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(relative, Eigen::EigenvaluesOnly)
+               .eigenvalues()
+               .maxCoeff() <= kMaxVarianceRatio;
+  };
   if (config_.imu.carry_bias_covariance && known && anchor->bias_covariance.llt().info() == Eigen::Success &&
-      eig.eigenvalues().maxCoeff() <= kMaxVarianceRatio) {
+      withinTurnOn(anchor->bias_covariance)) {
     BaBiasPrior prior;
     prior.keyframe_id = anchor->id;
     prior.mean = anchor->imu_bias_at_covariance;
