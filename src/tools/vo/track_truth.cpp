@@ -2,9 +2,10 @@
 /// How far the front end's tracks are from the true projection of their point, on a render whose depth was
 /// saved (`lunar_render ... --depth`). Runs the tracking stage alone (KltTracker with the configuration's
 /// tracker and detector sections) over the images. A track's point is where the ray of its first pixel meets
-/// the terrain (the depth image of that frame, true pose); in each later frame the track is compared with that
-/// point projected by the true pose. The error therefore starts at zero and shows what the tracker adds with
-/// age: the chained error of frame-to-frame tracking, the anchor patches' precision, jumps to wrong structure.
+/// the terrain (the depth image of that frame, true pose); in each later frame the track is compared with
+/// that point projected by the true pose. The error therefore starts at zero and shows what the tracker adds
+/// with age: the chained error of frame-to-frame tracking, the anchor patches' precision, jumps to wrong
+/// structure.
 ///
 /// Nothing here feeds the estimator: it is a measuring instrument for the tracking stage.
 ///
@@ -35,11 +36,12 @@ namespace pv = planetary_vo;
 namespace {
 
 void usage() {
-  std::cerr << "usage: track_truth --dataset DIR [--config YAML] [--max-frames N] [--csv FILE]\n"
-               "  --dataset     a planetary_vo render with its depth images (lunar_render --depth)\n"
-               "  --config      VO configuration (its tracker and detector sections are used); default: defaults\n"
-               "  --max-frames  stop after N images (default: all)\n"
-               "  --csv         write every sample: frame,track_id,age_frames,err_x_px,err_y_px\n";
+  std::cerr
+      << "usage: track_truth --dataset DIR [--config YAML] [--max-frames N] [--csv FILE]\n"
+         "  --dataset     a planetary_vo render with its depth images (lunar_render --depth)\n"
+         "  --config      VO configuration (its tracker and detector sections are used); default: defaults\n"
+         "  --max-frames  stop after N images (default: all)\n"
+         "  --csv         write every sample: frame,track_id,age_frames,err_x_px,err_y_px\n";
 }
 
 /// Bilinear depth at `px`, or NaN where the four neighbours are not one surface (their spread above 0.5 % of
@@ -47,7 +49,8 @@ void usage() {
 double depthAt(const cv::Mat1f& depth, const cv::Point2f& px) {
   const int x0 = static_cast<int>(std::floor(px.x)), y0 = static_cast<int>(std::floor(px.y));
   if (x0 < 0 || y0 < 0 || x0 + 1 >= depth.cols || y0 + 1 >= depth.rows) return std::nan("");
-  const float d00 = depth(y0, x0), d01 = depth(y0, x0 + 1), d10 = depth(y0 + 1, x0), d11 = depth(y0 + 1, x0 + 1);
+  const float d00 = depth(y0, x0), d01 = depth(y0, x0 + 1), d10 = depth(y0 + 1, x0),
+              d11 = depth(y0 + 1, x0 + 1);
   const float lo = std::min({d00, d01, d10, d11}), hi = std::max({d00, d01, d10, d11});
   if (!(lo > 0.f) || hi - lo > 0.005f * lo) return std::nan("");
   const double ax = px.x - x0, ay = px.y - y0;
@@ -81,10 +84,14 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--dataset") dataset_dir = next();
-    else if (a == "--config") config_path = next();
-    else if (a == "--max-frames") max_frames = std::atol(next().c_str());
-    else if (a == "--csv") csv_path = next();
+    if (a == "--dataset")
+      dataset_dir = next();
+    else if (a == "--config")
+      config_path = next();
+    else if (a == "--max-frames")
+      max_frames = std::atol(next().c_str());
+    else if (a == "--csv")
+      csv_path = next();
     else if (a == "-h" || a == "--help") {
       usage();
       return 0;
@@ -112,7 +119,8 @@ int main(int argc, char** argv) {
       if (!csv) throw std::runtime_error("cannot write " + csv_path);
       csv << "frame,track_id,age_frames,err_x_px,err_y_px\n";
     }
-    std::vector<Bin> bins = {{1, 1, {}, {}}, {2, 5, {}, {}}, {6, 20, {}, {}}, {21, 60, {}, {}}, {61, 1 << 30, {}, {}}};
+    std::vector<Bin> bins = {
+        {1, 1, {}, {}}, {2, 5, {}, {}}, {6, 20, {}, {}}, {21, 60, {}, {}}, {61, 1 << 30, {}, {}}};
     struct TruePoint {
       Eigen::Vector3d p_world, centre_world;  // the point and the camera centre it was first seen from
     };
@@ -179,9 +187,10 @@ int main(int argc, char** argv) {
       long n_in = 0;
       for (double e : b.errors)
         if (e < 1.0) sum2 += e * e, ++n_in;
-      const double share = b.errors.empty() ? std::nan("") : 1.0 - static_cast<double>(n_in) / b.errors.size();
-      const std::string label = b.hi >= (1 << 30) ? std::to_string(b.lo) + "+"
-                                                  : std::to_string(b.lo) + "-" + std::to_string(b.hi);
+      const double share =
+          b.errors.empty() ? std::nan("") : 1.0 - static_cast<double>(n_in) / b.errors.size();
+      const std::string label =
+          b.hi >= (1 << 30) ? std::to_string(b.lo) + "+" : std::to_string(b.lo) + "-" + std::to_string(b.hi);
       std::printf("%-12s %9zu %10.4f %10.4f %14.4f %10.4f %17.4f %14.4f\n", label.c_str(), b.errors.size(),
                   percentile(b.errors, 0.5), percentile(b.errors, 0.9),
                   n_in ? std::sqrt(sum2 / n_in) : std::nan(""), share, percentile(b.across, 0.5),

@@ -1,8 +1,8 @@
-// The track_truth tool (src/tools/vo/track_truth.cpp) on a small render with its depth: it reports the tracks'
-// distance to the true projection of their point by age, the error grows when the ground-truth poses it projects
-// with are wrong (so it measures the tracks against the truth, not against themselves), and a render without
-// depth is refused with a message that says how to make one. It lives with the render tests because it needs
-// the renderer (the vo tests are built with the sanitizer, which builds no renderer).
+// The track_truth tool (src/tools/vo/track_truth.cpp) on a small render with its depth: it reports the
+// tracks' distance to the true projection of their point by age, the error grows when the ground-truth poses
+// it projects with are wrong (so it measures the tracks against the truth, not against themselves), and a
+// render without depth is refused with a message that says how to make one. It lives with the render tests
+// because it needs the renderer (the vo tests are built with the sanitizer, which builds no renderer).
 #include <unistd.h>
 
 #include <cmath>
@@ -63,7 +63,8 @@ bool binRow(const std::string& report, const std::string& label, double* median_
 }  // namespace
 
 TEST(TrackTruthTool, TracksAreScoredAgainstTheTrueProjectionOfTheirPoint) {
-  ASSERT_TRUE(test::requireDataFile(executableDir() + "/track_truth")) << "build the track_truth target first";
+  ASSERT_TRUE(test::requireDataFile(executableDir() + "/track_truth"))
+      << "build the track_truth target first";
   SequenceOptions o;
   o.sequence = "approach_down";
   o.output_dir = test::outputDir("track_truth_tool") + "/render";
@@ -77,7 +78,8 @@ TEST(TrackTruthTool, TracksAreScoredAgainstTheTrueProjectionOfTheirPoint) {
   renderSequence(o);
   const std::string dir = fs::path(o.output_dir).parent_path().string();
 
-  ASSERT_EQ(runTrackTruth("--dataset " + o.output_dir + " --csv " + dir + "/samples.csv", dir + "/clean.txt"), 0)
+  ASSERT_EQ(runTrackTruth("--dataset " + o.output_dir + " --csv " + dir + "/samples.csv", dir + "/clean.txt"),
+            0)
       << readText(dir + "/clean.txt");
   const std::string clean = readText(dir + "/clean.txt");
   double clean_1 = 0.0, clean_6 = 0.0;
@@ -99,7 +101,8 @@ TEST(TrackTruthTool, TracksAreScoredAgainstTheTrueProjectionOfTheirPoint) {
   for (size_t i = 0; i < truth.size(); ++i)
     truth[i].T_world_cam.linear() =
         truth[i].T_world_cam.linear() *
-        Eigen::AngleAxisd(0.02 * M_PI / 180.0 * static_cast<double>(i), Eigen::Vector3d::UnitX()).toRotationMatrix();
+        Eigen::AngleAxisd(0.02 * M_PI / 180.0 * static_cast<double>(i), Eigen::Vector3d::UnitX())
+            .toRotationMatrix();
   writeTumTrajectory(bent + "/groundtruth.txt", truth);
   ASSERT_EQ(runTrackTruth("--dataset " + bent, dir + "/bent.txt"), 0) << readText(dir + "/bent.txt");
   double bent_6 = 0.0;
@@ -110,7 +113,8 @@ TEST(TrackTruthTool, TracksAreScoredAgainstTheTrueProjectionOfTheirPoint) {
   // Without the depth images the tool cannot place the points: a clear error, exit 1.
   fs::remove_all(bent + "/depth");
   EXPECT_EQ(runTrackTruth("--dataset " + bent, dir + "/no_depth.txt"), 1);
-  EXPECT_NE(readText(dir + "/no_depth.txt").find("--depth"), std::string::npos) << readText(dir + "/no_depth.txt");
+  EXPECT_NE(readText(dir + "/no_depth.txt").find("--depth"), std::string::npos)
+      << readText(dir + "/no_depth.txt");
 }
 
 int main(int argc, char** argv) {
