@@ -99,27 +99,43 @@ void KltTracker::buildPyramid(const cv::Mat& gray, bool plain, std::vector<cv::M
 }
 
 void KltTracker::predictPositions() {
-  // Median image motion of the tracks that have one: the guess for features detected in the last frame.
-  flow_scratch_.clear();
-  for (const FeatureTrack& t : tracks_)
-    if (t.age_frames > 0) flow_scratch_.push_back(t.px.x - t.prev_px.x);
-  const size_t n_moving = flow_scratch_.size();
-  cv::Point2f median_flow(0.f, 0.f);
-  if (n_moving > 0) {
-    std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + n_moving / 2, flow_scratch_.end());
-    median_flow.x = flow_scratch_[n_moving / 2];
-    flow_scratch_.clear();
-    for (const FeatureTrack& t : tracks_)
-      if (t.age_frames > 0) flow_scratch_.push_back(t.px.y - t.prev_px.y);
-    std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + n_moving / 2, flow_scratch_.end());
-    median_flow.y = flow_scratch_[n_moving / 2];
-  }
+  // A track with a history is expected where its own last motion takes it. A feature detected in the last
+  // frame has none: it is expected to move like its nearest tracks that have one (the median of their last
+  // motions), since the image motion varies across the view (a camera looking ahead sees the near ground move
+  // faster than the far ground, a descent expands the view): one median for the whole image missed new
+  // features by several pixels there, beyond the alignment's basin (docs/visual_core.md, step 23).
+  constexpr size_t kNeighbours = 8;
+  moving_.clear();
+  for (size_t i = 0; i < tracks_.size(); ++i)
+    if (tracks_[i].age_frames > 0) moving_.push_back(i);
   const float x_max = static_cast<float>(image_size_.width - 1);
   const float y_max = static_cast<float>(image_size_.height - 1);
   guess_px_.resize(tracks_.size());
+  std::vector<std::pair<float, size_t>>& nearest = nearest_scratch_;
   for (size_t i = 0; i < tracks_.size(); ++i) {
     const FeatureTrack& t = tracks_[i];
-    const cv::Point2f flow = t.age_frames > 0 ? t.px - t.prev_px : median_flow;
+    cv::Point2f flow(0.f, 0.f);
+    if (t.age_frames > 0) {
+      flow = t.px - t.prev_px;
+    } else if (!moving_.empty()) {
+      nearest.clear();
+      for (const size_t j : moving_) {
+        const cv::Point2f d = tracks_[j].px - t.px;
+        nearest.emplace_back(d.dot(d), j);
+      }
+      const size_t k = std::min(kNeighbours, nearest.size());
+      std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(k), nearest.end());
+      flow_scratch_.clear();
+      for (size_t m = 0; m < k; ++m)
+        flow_scratch_.push_back(tracks_[nearest[m].second].px.x - tracks_[nearest[m].second].prev_px.x);
+      std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + k / 2, flow_scratch_.end());
+      flow.x = flow_scratch_[k / 2];
+      flow_scratch_.clear();
+      for (size_t m = 0; m < k; ++m)
+        flow_scratch_.push_back(tracks_[nearest[m].second].px.y - tracks_[nearest[m].second].prev_px.y);
+      std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + k / 2, flow_scratch_.end());
+      flow.y = flow_scratch_[k / 2];
+    }
     // A guess outside the image would start LK on padding; the border check drops tracks that really leave.
     guess_px_[i] = cv::Point2f(std::min(std::max(t.px.x + flow.x, 0.f), x_max),
                                std::min(std::max(t.px.y + flow.y, 0.f), y_max));

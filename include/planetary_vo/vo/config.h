@@ -84,8 +84,9 @@ struct TrackerConfig {
       1.0;            ///< forward-backward round-trip error above which a track is dropped; 0 = off
   int border_px = 1;  ///< a track closer than this to the image border is dropped
   /// Start LK at a predicted position instead of the previous one: the track's own last image motion
-  /// (constant image velocity), or the median motion of the others for a new feature. Keeps LK inside its
-  /// convergence basin when the whole image moves by tens of pixels (a turn, a fast pass over the ground).
+  /// (constant image velocity), or the median motion of its 8 nearest tracks for a new feature. Keeps LK
+  /// inside its convergence basin when the whole image moves by tens of pixels (a turn, a fast pass over the
+  /// ground).
   bool predict_flow = true;
   ReplenishStrategy replenish_strategy = ReplenishStrategy::kEmptyCells;
   int replenish_cell_min_features =

@@ -5,6 +5,7 @@
 /// (surviving tracks are kept and new features are detected only where the grid has become empty).
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -199,6 +200,8 @@ class KltTracker {
   std::vector<cv::Mat> prev_pyramid_, curr_pyramid_, rescue_plain_;
   std::vector<cv::Point2f> prev_px_, curr_px_, back_px_, existing_px_, guess_px_;
   std::vector<float> flow_scratch_, miss_px_;
+  std::vector<size_t> moving_;                             ///< predictPositions(): tracks with a history
+  std::vector<std::pair<float, size_t>> nearest_scratch_;  ///< predictPositions(): distances to them
   /// anchor_alignment: 90th percentile of the distance between predicted and aligned positions in the last
   /// frame (sets the coarsest pyramid level needed); -1 when unknown.
   double prediction_error_px_ = -1.0;
