@@ -2,9 +2,13 @@
 /// Helpers shared by the unit tests: where the shared data and the test output live.
 
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -36,6 +40,31 @@ inline std::string sourceRoot() {
     return "./";
   }
   return file.substr(0, file.size() - suffix.size());
+}
+
+/// The folder of the running test executable: catkin puts the tools beside it (devel/lib/planetary_vo/).
+inline std::string executableDir() {
+  char exe[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n <= 0) return ".";
+  const std::string path(exe, static_cast<size_t>(n));
+  return path.substr(0, path.find_last_of('/'));
+}
+
+/// The whole text of a file ("" when it cannot be read).
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Runs the tool `name` from executableDir() with `args`, stdout and stderr to `log`; its exit status (-1
+/// when it did not exit normally).
+inline int runTool(const std::string& name, const std::string& args, const std::string& log) {
+  const std::string command = executableDir() + "/" + name + " " + args + " > " + log + " 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 /// A fresh folder for files a test writes, under the build tree: <build>/test_output/<name>.

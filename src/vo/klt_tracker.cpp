@@ -12,6 +12,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "planetary_vo/geometry/median.h"
+
 namespace planetary_vo {
 namespace {
 
@@ -112,11 +114,12 @@ void KltTracker::predictPositions() {
   const float y_max = static_cast<float>(image_size_.height - 1);
   guess_px_.resize(tracks_.size());
   std::vector<std::pair<float, size_t>>& nearest = nearest_scratch_;
+  auto motion = [this](size_t j) { return tracks_[j].px - tracks_[j].prev_px; };
   for (size_t i = 0; i < tracks_.size(); ++i) {
     const FeatureTrack& t = tracks_[i];
     cv::Point2f flow(0.f, 0.f);
     if (t.age_frames > 0) {
-      flow = t.px - t.prev_px;
+      flow = motion(i);
     } else if (!moving_.empty()) {
       nearest.clear();
       for (const size_t j : moving_) {
@@ -126,15 +129,11 @@ void KltTracker::predictPositions() {
       const size_t k = std::min(kNeighbours, nearest.size());
       std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(k), nearest.end());
       flow_scratch_.clear();
-      for (size_t m = 0; m < k; ++m)
-        flow_scratch_.push_back(tracks_[nearest[m].second].px.x - tracks_[nearest[m].second].prev_px.x);
-      std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + k / 2, flow_scratch_.end());
-      flow.x = flow_scratch_[k / 2];
+      for (size_t m = 0; m < k; ++m) flow_scratch_.push_back(motion(nearest[m].second).x);
+      flow.x = medianInPlace(&flow_scratch_);
       flow_scratch_.clear();
-      for (size_t m = 0; m < k; ++m)
-        flow_scratch_.push_back(tracks_[nearest[m].second].px.y - tracks_[nearest[m].second].prev_px.y);
-      std::nth_element(flow_scratch_.begin(), flow_scratch_.begin() + k / 2, flow_scratch_.end());
-      flow.y = flow_scratch_[k / 2];
+      for (size_t m = 0; m < k; ++m) flow_scratch_.push_back(motion(nearest[m].second).y);
+      flow.y = medianInPlace(&flow_scratch_);
     }
     // A guess outside the image would start LK on padding; the border check drops tracks that really leave.
     guess_px_[i] = cv::Point2f(std::min(std::max(t.px.x + flow.x, 0.f), x_max),

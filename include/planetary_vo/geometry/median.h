@@ -9,8 +9,9 @@
 
 namespace planetary_vo {
 
-inline double medianInPlace(std::vector<double>* values) {
-  if (values->empty()) return 0.0;
+template <typename T>
+T medianInPlace(std::vector<T>* values) {
+  if (values->empty()) return T(0);
   const auto mid = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
   std::nth_element(values->begin(), mid, values->end());
   return *mid;

@@ -112,6 +112,11 @@ int main(int argc, char** argv) {
     const pv::VoConfig config = config_path.empty() ? pv::VoConfig() : pv::loadVoConfig(config_path);
     const pv::PinholeCamera& camera = dataset.camera();
     pv::KltTracker tracker(config.tracker, config.detector);
+    // The pixel a point in the camera frame is seen at, through the lens (images are stored distorted).
+    auto projectPx = [&camera](const Eigen::Vector3d& p_in_cam) {
+      const Eigen::Vector2d ideal = camera.project(p_in_cam);
+      return camera.hasDistortion() ? camera.distortPixel(ideal) : ideal;
+    };
 
     std::ofstream csv;
     if (!csv_path.empty()) {
@@ -155,10 +160,6 @@ int main(int argc, char** argv) {
         if (it == point_world.end()) continue;
         const Eigen::Vector3d p_cam = T_cam_world * it->second.p_world;
         if (p_cam.z() <= 0.0) continue;
-        auto projectPx = [&](const Eigen::Vector3d& p_in_cam) {
-          const Eigen::Vector2d ideal = camera.project(p_in_cam);
-          return camera.hasDistortion() ? camera.distortPixel(ideal) : ideal;
-        };
         const Eigen::Vector2d truth = projectPx(p_cam);
         const double ex = t.px.x - truth.x(), ey = t.px.y - truth.y();
         // The epipolar direction: where the projection moves when the point slides along its first ray (an

@@ -1,8 +1,6 @@
 /// Runs the vo_eval executable, which catkin puts beside the test executables (devel/lib/planetary_vo/): exit
 /// codes, report, JSON and plots. Fails (does not skip) when the executable has not been built.
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -19,27 +17,11 @@
 namespace planetary_vo {
 namespace {
 
-std::string executableDir() {
-  char exe[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-  if (n <= 0) return ".";
-  const std::string path(exe, static_cast<size_t>(n));
-  return path.substr(0, path.find_last_of('/'));
-}
-
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::executableDir;
+using test::readText;
 
 /// Runs vo_eval with `args`, output to `log`; returns its exit status.
-int runVoEval(const std::string& args, const std::string& log) {
-  const std::string command = executableDir() + "/vo_eval " + args + " > " + log + " 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+int runVoEval(const std::string& args, const std::string& log) { return test::runTool("vo_eval", args, log); }
 
 TEST(VoEvalTool, ReportJsonPlotsAndErrorExitCodes) {
   ASSERT_TRUE(test::requireDataFile(executableDir() + "/vo_eval")) << "build the vo_eval target first";

@@ -3,7 +3,6 @@
 // it projects with are wrong (so it measures the tracks against the truth, not against themselves), and a
 // render without depth is refused with a message that says how to make one. It lives with the render tests
 // because it needs the renderer (the vo tests are built with the sanitizer, which builds no renderer).
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -25,25 +24,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string executableDir() {
-  char exe[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-  if (n <= 0) return ".";
-  const std::string path(exe, static_cast<size_t>(n));
-  return path.substr(0, path.find_last_of('/'));
-}
-
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::executableDir;
+using test::readText;
 
 int runTrackTruth(const std::string& args, const std::string& log) {
-  const std::string command = executableDir() + "/track_truth " + args + " > " + log + " 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return test::runTool("track_truth", args, log);
 }
 
 /// The median error (px) and the sample count of the age bin `label` ("1-1", "2-5", ...) in a report.
