@@ -2,7 +2,6 @@
 /// Helpers of the dataset tests: synthetic images, file writing and pose comparison.
 
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -10,6 +9,7 @@
 
 #include "planetary_vo/dataset/dataset.h"
 #include "planetary_vo/geometry/pose.h"
+#include "test_support.h"  // readText
 
 namespace planetary_vo::test {
 
@@ -27,13 +27,6 @@ inline void writeText(const std::string& path, const std::string& text) {
   std::ofstream out(path);
   ASSERT_TRUE(out.good()) << "cannot write " << path;
   out << text;
-}
-
-inline std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 /// Translation distance [m] and rotation angle [rad] between two poses.
