@@ -139,6 +139,7 @@ void motionFields(C& c, V& v) {
   v("homography_score_ratio", c.homography_score_ratio, 0.0, 1.0);
   v("min_inliers", c.min_inliers, 5, 100000);
   v("min_parallax_deg", c.min_parallax_deg, 0.0, 90.0);
+  v("max_rotation_sigma_deg", c.max_rotation_sigma_deg, 0.0, 180.0);
   v.enumeration("plane_normal_prior", c.plane_normal_prior);
 }
 

@@ -637,6 +637,12 @@ void Pipeline::tryInitialise(FrameResult* result) {
   result->times.motion_ms = msSince(start);
   if (!init.valid) {
     holdPose(result, "initialisation rejected: " + init.reason);
+    if (init.ill_conditioned) {
+      // The reference's tracks only get fewer: they will not determine the motion later either. This frame's
+      // tracks (with the new detections) may.
+      result->message += "; reference moved";
+      snapshotCurrent(timestamp_s_, result->T_world_cam, &reference_);
+    }
     return;
   }
   const Clock::time_point mapping_start = Clock::now();
@@ -714,7 +720,8 @@ void Pipeline::tryInitialise(FrameResult* result) {
            ? " at " + std::to_string(init.rival_cost_ratio).substr(0, 4) + "x the cost"
            : std::string()) +
       (init.motion.resolved_by_prior ? ", homography ambiguity resolved by the normal prior" : "") +
-      scale_note + ")";
+      ", rotation 1-sigma " + std::to_string(init.conditioning.rotation_sigma_deg).substr(0, 5) +
+      " deg at 1 px" + scale_note + ")";
   stage_ = PipelineStage::kTracking;
   failed_frames_ = 0;
   frames_since_keyframe_ = 0;
@@ -1458,8 +1465,8 @@ void Pipeline::addInertialFactors(BaProblem* problem) const {
     Eigen::Matrix<double, 6, 1> turn_on_sigma;
     turn_on_sigma << Eigen::Vector3d::Constant(config_.imu.gyro_turn_on_bias_radps),
         Eigen::Vector3d::Constant(config_.imu.accel_turn_on_bias_mps2);
-    const Eigen::Matrix<double, 6, 6> relative = turn_on_sigma.cwiseInverse().asDiagonal() * covariance *
-                                                 turn_on_sigma.cwiseInverse().asDiagonal();
+    const Eigen::Matrix<double, 6, 6> relative =
+        turn_on_sigma.cwiseInverse().asDiagonal() * covariance * turn_on_sigma.cwiseInverse().asDiagonal();
     constexpr double kMaxVarianceRatio = 1.01;  // measured: at most 1.0000 along a descent (main_brake_down)
     return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(relative, Eigen::EigenvaluesOnly)
                .eigenvalues()

@@ -138,6 +138,10 @@ struct MotionConfig {
   double homography_score_ratio = 0.45;    ///< auto: pick H when S_H / (S_H + S_F) > this (ORB-SLAM R_H)
   int min_inliers = 30;                    ///< fewer RANSAC inliers -> the frame pair is rejected
   double min_parallax_deg = 0.7;           ///< median triangulation angle needed to trust a two-view pose
+  /// A two-view start's rotation may have at most this 1-sigma (deg) for 1 px of pixel noise, from the
+  /// geometry of its points (geometry/two_view_conditioning.h); above it the initialisation reference moves
+  /// to the current frame. 0 = no check.
+  double max_rotation_sigma_deg = 1.5;
   /// Homography two-fold ambiguity prior; none by default (a wrong prior picks the wrong decomposition, see
   /// config/default.yaml).
   PlaneNormalPrior plane_normal_prior = PlaneNormalPrior::kNone;

@@ -15,6 +15,9 @@
 /// unless a clearly different motion explains the views at a fraction of its reprojection cost: moving
 /// mostly along the optical axis, the right motion passes fewer points through the parallax threshold than
 /// its more sideways twin, and only the relief's residual tells them apart.
+/// A motion its points do not determine (too few of them, or in a small part of the view: a rotation passes
+/// for a translation) is rejected as ill-conditioned: its rotation's 1-sigma for 1 px of pixel noise
+/// (geometry/two_view_conditioning.h) above motion.max_rotation_sigma_deg.
 /// A pose that no check can vouch for is rejected, never guessed.
 
 #include <cstdint>
@@ -25,6 +28,7 @@
 #include <opencv2/core.hpp>
 
 #include "planetary_vo/geometry/pose.h"
+#include "planetary_vo/geometry/two_view_conditioning.h"
 #include "planetary_vo/geometry/two_view_types.h"
 #include "planetary_vo/vo/config.h"
 #include "planetary_vo/vo/frame_result.h"
@@ -57,6 +61,12 @@ struct Initialization {
   /// motion's (0: no rival). Initialisation needs it at least 1.5 when the rival triangulates 3/4 as many
   /// points or more.
   double rival_cost_ratio = 0.0;
+  /// How well the points determine the motion (1 px of pixel noise); computed for a start that passed the
+  /// other checks.
+  TwoViewConditioning conditioning;
+  /// Rejected because the rotation's 1-sigma exceeds motion.max_rotation_sigma_deg: the points cannot tell a
+  /// rotation from a translation, and more parallax with the same points will not change that.
+  bool ill_conditioned = false;
 };
 
 /// Two-view motion and map initialisation. Stateless apart from its settings; cheap to copy.
@@ -79,7 +89,7 @@ class Initializer {
   ///        clearly different motion costs at most 1/1.5 of its reprojection cost on the common
   ///        correspondences (then that one wins). The winner is rejected (wait for more parallax) when a
   ///        rival triangulates at least 3/4 as many points without costing 1.5x more. Valid when at least
-  ///        motion.min_inliers points are triangulated.
+  ///        motion.min_inliers points are triangulated and they determine the motion (else ill_conditioned).
   Initialization initialize(const std::vector<uint64_t>& track_ids, const std::vector<cv::Point2d>& px1,
                             const std::vector<cv::Point2d>& px2, const Eigen::Matrix3d& K) const;
 

@@ -98,6 +98,7 @@ TEST(VoConfig, FixtureParsesFieldByField) {
   EXPECT_DOUBLE_EQ(c.motion.homography_score_ratio, 0.4);
   EXPECT_EQ(c.motion.min_inliers, 40);
   EXPECT_DOUBLE_EQ(c.motion.min_parallax_deg, 2.0);
+  EXPECT_DOUBLE_EQ(c.motion.max_rotation_sigma_deg, 0.5);
   EXPECT_EQ(c.motion.plane_normal_prior, PlaneNormalPrior::kImageDown);
 
   EXPECT_EQ(c.keyframe.mode, KeyframeMode::kFixedRate);
