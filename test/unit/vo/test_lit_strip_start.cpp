@@ -20,15 +20,15 @@
 namespace planetary_vo {
 namespace {
 
-/// The held-out render's first 3 s (the campaign's lunar_render options, cut with --duration): the same
-/// images as the campaign's first 31.
+/// The held-out render's first 1.6 s (the campaign's lunar_render options, cut with --duration): the same
+/// images as the campaign's first 17.
 std::string renderLitStripClip() {
   render::SequenceOptions o;
   o.sequence = "approach_nozzle";
   o.output_dir = std::string(PLANETARY_VO_TEST_OUTPUT_DIR) + "/lit_strip_clip";  // cached across runs
   o.dem_yaml = test::dataPath("lunar_dem/apollo15_gld100.yaml");
   o.width = o.height = 512;
-  o.duration_s = 3.0;
+  o.duration_s = 1.6;
   o.seed = 1088244392;
   o.sun_elevation_deg = 10.0;
   o.sun_azimuth_deg = 187.81;
@@ -86,7 +86,7 @@ TEST(LitStripStart, AStartWhosePointsDoNotDetermineTheMotionWaitsForPointsThatDo
   const std::string dem = test::dataPath("lunar_dem/apollo15_gld100.yaml");
   ASSERT_TRUE(test::requireDataFile(dem));
   const Dataset clip = Dataset::open(renderLitStripClip());
-  ASSERT_EQ(clip.size(), 31u);
+  ASSERT_EQ(clip.size(), 17u);
   ASSERT_EQ(clip.groundTruth().size(), clip.size());
 
   const StartOutcome checked = runClip(clip, VoConfig().motion.max_rotation_sigma_deg);
@@ -102,7 +102,7 @@ TEST(LitStripStart, AStartWhosePointsDoNotDetermineTheMotionWaitsForPointsThatDo
   // With it that start is refused, and the one a few frames later is right (measured: 0.16 deg and 5.2 deg).
   EXPECT_GE(checked.refused, 1);
   ASSERT_GT(checked.start_frame, unchecked.start_frame);
-  EXPECT_LE(checked.start_frame, 20);
+  EXPECT_LE(checked.start_frame, 12);
   EXPECT_LT(checked.direction_error_deg, 10.0);
   EXPECT_LT(checked.rotation_error_deg, 0.5);
 }
