@@ -243,12 +243,6 @@ void validate(const ImuNoiseParams& noise) {
 // SO(3)
 // ---------------------------------------------------------------------------------------------------------
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return S;
-}
-
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& phi) { return expQuaternion(phi).toRotationMatrix(); }
 
 Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {

@@ -1,5 +1,6 @@
 #include "planetary_vo/geometry/two_view_conditioning.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -15,12 +16,6 @@ Eigen::Matrix<double, 2, 3> projectionJacobian(const Eigen::Vector3d& p, double 
   Eigen::Matrix<double, 2, 3> J;
   J << fx * iz, 0.0, -fx * p.x() * iz * iz, 0.0, fy * iz, -fy * p.y() * iz * iz;
   return J;
-}
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return S;
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "planetary_vo/geometry/pose.h"  // skew()
 #include "planetary_vo/ros_io/conversions.h"
 
 namespace planetary_vo::ros_io {
@@ -184,16 +185,6 @@ bool differentiatePoses(const Pose& T_world_prev, const Pose& T_world_cur, doubl
   *w_body = aa.axis() * aa.angle() / dt_s;
   return true;
 }
-
-namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
-}  // namespace
 
 nav_msgs::Odometry toNavOdometry(const NavSolution& s, const Pose& T_cam_imu, const Pose& T_cam_child,
                                  const std_msgs::Header& header, const std::string& child_frame_id) {

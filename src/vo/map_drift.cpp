@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "planetary_vo/fusion/imu_preintegration.h"  // skew()
+#include "planetary_vo/geometry/pose.h"  // skew()
 
 namespace planetary_vo {
 namespace {

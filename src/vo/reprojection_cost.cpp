@@ -5,17 +5,9 @@
 
 #include <Eigen/Geometry>
 
+#include "planetary_vo/geometry/pose.h"  // skew()
+
 namespace planetary_vo {
-namespace {
-
-/// [v]x: the matrix of the cross product v x (.).
-inline Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
-}  // namespace
 
 bool ReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
                                 double** jacobians) const {

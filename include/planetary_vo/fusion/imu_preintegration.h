@@ -43,6 +43,7 @@
 
 #include "planetary_vo/fusion/measurements.h"
 #include "planetary_vo/fusion/nav_state.h"
+#include "planetary_vo/geometry/pose.h"  // skew()
 
 namespace planetary_vo {
 
@@ -60,8 +61,7 @@ void validate(const ImuNoiseParams& noise);
 // ---------------------------------------------------------------------------------------------------------
 // SO(3) helpers (rotation vectors in rad; exact closed forms with Taylor series below 1e-3 rad)
 // ---------------------------------------------------------------------------------------------------------
-/// [v]x: skew(v) * u = v.cross(u).
-Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+/// (skew(v), the cross-product matrix, is in geometry/pose.h.)
 /// Rotation matrix of the rotation vector phi (Rodrigues).
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& phi);
 /// Rotation vector of R, angle in [0, pi].

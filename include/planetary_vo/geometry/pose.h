@@ -2,8 +2,8 @@
 /// @file pose.h
 /// Rigid poses and their naming convention.
 ///
-/// `T_a_b` maps coordinates of frame b into frame a: p_in_a = T_a_b * p_in_b. So `T_world_cam` is the pose of the
-/// camera optical frame in the world frame (its translation is the camera centre in world coordinates).
+/// `T_a_b` maps coordinates of frame b into frame a: p_in_a = T_a_b * p_in_b. So `T_world_cam` is the pose of
+/// the camera optical frame in the world frame (its translation is the camera centre in world coordinates).
 /// Timestamps are seconds as double.
 
 #include <vector>
@@ -25,5 +25,7 @@ using Trajectory = std::vector<StampedPose>;
 double rotationAngleDeg(const Eigen::Matrix3d& R);
 /// Angle between two directions in degrees, in [0, 180]; 0 when either is zero.
 double angleBetweenDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+/// [v]x, the matrix of the cross product: skew(v) * u = v.cross(u).
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
 
 }  // namespace planetary_vo
